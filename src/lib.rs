@@ -1,0 +1,26 @@
+//! # contact-skin
+//!
+//! Poses rigged glTF characters and resolves their contacts geometrically, after
+//! Brunel, Bénard and Guennebaud, *A Time-independent Deformer for Elastic Contacts* (2021),
+//! with the implicit-layer model of Cani and Desbrun (1997) as a comparison.
+//!
+//! The crate is laid out by pipeline stage:
+//!
+//! | stage | module |
+//! | --- | --- |
+//! | glTF reading, skeleton, animation sampling | [`rig`] |
+//! | welded topology of the skinned meshes | [`mesh`] |
+//! | linear blend, dual quaternion and center-of-rotation skinning | [`skinning`] |
+//! | evaluation of an animation, frame by frame | [`frames`] |
+//! | OBJ frames and baked glb | [`output`] |
+//! | the procedural test scenes of `rigs/` | [`scenes`] |
+//!
+//! Everything that does not depend on the pose is precomputed once per rig
+//! ([`frames::Precomputed`]); every frame is a pure function of the pose.
+
+
+pub mod mesh;
+pub mod output;
+pub mod rig;
+pub mod scenes;
+pub mod skinning;

@@ -1,0 +1,200 @@
+//! glTF animations and their sampling at any time: LINEAR (spherical for rotations), STEP and
+//! CUBICSPLINE interpolation, as the glTF 2.0 specification (Appendix C) defines them.
+
+use super::skeleton::{unit_quaternion, LocalTransform};
+use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+
+/// Which part of a node's TRS a channel drives.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Property {
+    /// `translation` (3 components).
+    Translation,
+    /// `rotation` (4 components, `[x, y, z, w]`).
+    Rotation,
+    /// `scale` (3 components).
+    Scale,
+}
+
+impl Property {
+    /// Number of components of one value.
+    pub fn components(self) -> usize {
+        match self {
+            Property::Rotation => 4,
+            _ => 3,
+        }
+    }
+}
+
+/// A sampler's interpolation mode.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Interpolation {
+    /// Piecewise linear; spherical linear for rotations.
+    Linear,
+    /// Piecewise constant.
+    Step,
+    /// Cubic Hermite with in- and out-tangents stored beside each value.
+    CubicSpline,
+}
+
+/// One animated property of one node.
+#[derive(Clone, Debug)]
+pub struct Channel {
+    /// Target node.
+    pub node: usize,
+    /// Target property.
+    pub property: Property,
+    /// Interpolation.
+    pub interpolation: Interpolation,
+    /// Key times in seconds, strictly increasing and finite.
+    pub times: Vec<f64>,
+    /// Key values, flattened: `components` per value, and for CUBICSPLINE the triples
+    /// `[in-tangent, value, out-tangent]` per key.
+    pub values: Vec<f64>,
+}
+
+/// A named set of channels.
+#[derive(Clone, Debug)]
+pub struct Animation {
+    /// Name from the file.
+    pub name: Option<String>,
+    /// Channels (morph-weight channels are not kept).
+    pub channels: Vec<Channel>,
+    /// Earliest key time over all channels.
+    pub start: f64,
+    /// Latest key time over all channels.
+    pub end: f64,
+}
+
+impl Animation {
+    /// Builds an animation and its time range from its channels.
+    pub fn new(name: Option<String>, channels: Vec<Channel>) -> Self {
+        let start = channels
+            .iter()
+            .filter_map(|c| c.times.first().copied())
+            .fold(f64::INFINITY, f64::min);
+        let end = channels
+            .iter()
+            .filter_map(|c| c.times.last().copied())
+            .fold(f64::NEG_INFINITY, f64::max);
+        let (start, end) = if start.is_finite() { (start, end) } else { (0.0, 0.0) };
+        Self {
+            name,
+            channels,
+            start,
+            end,
+        }
+    }
+
+    /// Duration `end - start` in seconds.
+    pub fn duration(&self) -> f64 {
+        self.end - self.start
+    }
+
+    /// `n` times evenly spaced over `[start, end]`, both included (`start` alone for `n = 1`).
+    pub fn frame_times(&self, n: usize) -> Vec<f64> {
+        match n {
+            0 => Vec::new(),
+            1 => vec![self.start],
+            _ => (0..n)
+                .map(|i| self.start + self.duration() * i as f64 / (n - 1) as f64)
+                .collect(),
+        }
+    }
+
+    /// Overrides the targeted properties of `locals` with their values at time `t`.
+    pub fn apply(&self, t: f64, locals: &mut [LocalTransform]) {
+        for ch in &self.channels {
+            let Some(local) = locals.get_mut(ch.node) else {
+                continue;
+            };
+            let mut trs = local.trs();
+            let v = ch.sample(t);
+            match ch.property {
+                Property::Translation => trs.translation = Vector3::new(v[0], v[1], v[2]),
+                Property::Scale => trs.scale = Vector3::new(v[0], v[1], v[2]),
+                Property::Rotation => {
+                    if let Some(q) = unit_quaternion(v) {
+                        trs.rotation = q;
+                    }
+                }
+            }
+            *local = LocalTransform::Trs(trs);
+        }
+    }
+}
+
+impl Channel {
+    fn value(&self, key: usize, slot: usize) -> [f64; 4] {
+        let c = self.property.components();
+        let stride = if self.interpolation == Interpolation::CubicSpline { 3 } else { 1 };
+        let base = (key * stride + slot) * c;
+        let mut out = [0.0; 4];
+        out[..c].copy_from_slice(&self.values[base..base + c]);
+        out
+    }
+
+    /// The value at time `t` (`[x, y, z, w]` for rotations; the 4th entry unused otherwise).
+    /// Before the first key and after the last, the end values hold.
+    pub fn sample(&self, t: f64) -> [f64; 4] {
+        let n = self.times.len();
+        let value_slot = if self.interpolation == Interpolation::CubicSpline { 1 } else { 0 };
+        if n == 1 || t <= self.times[0] || t.is_nan() {
+            return self.value(0, value_slot);
+        }
+        if t >= self.times[n - 1] {
+            return self.value(n - 1, value_slot);
+        }
+        // Largest k with times[k] <= t; k < n - 1 here.
+        let k = self.times.partition_point(|&x| x <= t) - 1;
+        let (t0, t1) = (self.times[k], self.times[k + 1]);
+        let dt = t1 - t0;
+        let s = (t - t0) / dt;
+        match self.interpolation {
+            Interpolation::Step => self.value(k, 0),
+            Interpolation::Linear => {
+                let (a, b) = (self.value(k, 0), self.value(k + 1, 0));
+                if self.property == Property::Rotation {
+                    slerp(a, b, s)
+                } else {
+                    std::array::from_fn(|i| a[i] + (b[i] - a[i]) * s)
+                }
+            }
+            Interpolation::CubicSpline => {
+                let (v0, b0) = (self.value(k, 1), self.value(k, 2));
+                let (a1, v1) = (self.value(k + 1, 0), self.value(k + 1, 1));
+                let (s2, s3) = (s * s, s * s * s);
+                let h00 = 2.0 * s3 - 3.0 * s2 + 1.0;
+                let h10 = s3 - 2.0 * s2 + s;
+                let h01 = -2.0 * s3 + 3.0 * s2;
+                let h11 = s3 - s2;
+                std::array::from_fn(|i| {
+                    h00 * v0[i] + h10 * dt * b0[i] + h01 * v1[i] + h11 * dt * a1[i]
+                })
+            }
+        }
+    }
+}
+
+/// Spherical linear interpolation of `[x, y, z, w]` quaternions along the shorter arc
+/// (glTF 2.0 Appendix C); falls back to normalized linear interpolation for nearly equal inputs.
+pub fn slerp(a: [f64; 4], b: [f64; 4], s: f64) -> [f64; 4] {
+    let qa = unit_quaternion(a).unwrap_or_else(UnitQuaternion::identity);
+    let qb = unit_quaternion(b).unwrap_or_else(UnitQuaternion::identity);
+    let mut d = qa.coords.dot(&qb.coords);
+    let mut qb: Quaternion<f64> = qb.into_inner();
+    if d < 0.0 {
+        qb = -qb;
+        d = -d;
+    }
+    let qa = qa.into_inner();
+    let q = if d > 0.9995 {
+        qa * (1.0 - s) + qb * s
+    } else {
+        let theta0 = d.clamp(-1.0, 1.0).acos();
+        let theta = theta0 * s;
+        let sin0 = theta0.sin();
+        qa * ((theta0 - theta).sin() / sin0) + qb * (theta.sin() / sin0)
+    };
+    let q = q.normalize();
+    [q.i, q.j, q.k, q.w]
+}

@@ -1,0 +1,592 @@
+//! Reading a `.gltf` / `.glb` file into a [`Rig`].
+
+use super::accessor::{self, Source};
+use super::animation::{Animation, Channel, Interpolation, Property};
+use super::skeleton::{unit_quaternion, LocalTransform, Node, Trs};
+use super::weights::{normalize_row, SkinWeights};
+use super::{Body, PrimitiveRange, Rig, RigError, Skin};
+use base64::Engine;
+use nalgebra::{Matrix4, Point3, Vector3};
+use std::path::{Component, Path, PathBuf};
+
+/// Largest file we agree to read (1 GiB): a guard against absurd inputs, not a format limit.
+pub const MAX_FILE_BYTES: u64 = 1 << 30;
+
+/// Reads a rig from a `.gltf` or `.glb` file. Buffers may be embedded (GLB binary chunk or
+/// `data:` URI) or sibling files; a buffer URI must stay inside the file's own folder.
+pub fn load(path: &Path) -> Result<Rig, RigError> {
+    let io = |source| RigError::Io {
+        file: path.to_path_buf(),
+        source,
+    };
+    let meta = std::fs::metadata(path).map_err(io)?;
+    if meta.len() > MAX_FILE_BYTES {
+        return Err(RigError::Format {
+            file: path.to_path_buf(),
+            message: format!("file is {} bytes, above the {} byte limit", meta.len(), MAX_FILE_BYTES),
+        });
+    }
+    let bytes = std::fs::read(path).map_err(io)?;
+    let folder = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    load_impl(path, &bytes, Some(&folder))
+}
+
+/// Reads a rig from bytes already in memory. `label` names it in errors; external buffer
+/// files are refused (there is no folder to resolve them in).
+pub fn load_from_bytes(label: &Path, bytes: &[u8]) -> Result<Rig, RigError> {
+    load_impl(label, bytes, None)
+}
+
+fn load_impl(file: &Path, bytes: &[u8], folder: Option<&Path>) -> Result<Rig, RigError> {
+    let gltf = gltf::Gltf::from_slice(bytes).map_err(|e| RigError::Format {
+        file: file.to_path_buf(),
+        message: e.to_string(),
+    })?;
+    let buffers = resolve_buffers(file, &gltf, folder)?;
+    let src = Source {
+        file,
+        buffers: &buffers,
+    };
+    let doc = &gltf.document;
+    let mut warnings = Vec::new();
+    let (nodes, node_order) = read_nodes(file, doc)?;
+    let skins = read_skins(&src, doc)?;
+    let bodies = read_bodies(&src, doc, &skins, &mut warnings)?;
+    let animations = read_animations(&src, doc, &mut warnings)?;
+    Ok(Rig {
+        source: file.to_path_buf(),
+        nodes,
+        node_order,
+        skins,
+        bodies,
+        animations,
+        warnings,
+    })
+}
+
+fn invalid(file: &Path, element: impl Into<String>, message: impl Into<String>) -> RigError {
+    RigError::Invalid {
+        file: file.to_path_buf(),
+        element: element.into(),
+        message: message.into(),
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Buffers
+
+fn resolve_buffers(
+    file: &Path,
+    gltf: &gltf::Gltf,
+    folder: Option<&Path>,
+) -> Result<Vec<Vec<u8>>, RigError> {
+    let mut out = Vec::new();
+    for buffer in gltf.document.buffers() {
+        let i = buffer.index();
+        let err = |message: String| RigError::Buffer {
+            file: file.to_path_buf(),
+            buffer: i,
+            message,
+        };
+        let data = match buffer.source() {
+            gltf::buffer::Source::Bin => gltf
+                .blob
+                .clone()
+                .ok_or_else(|| err("refers to the GLB binary chunk, which is missing".into()))?,
+            gltf::buffer::Source::Uri(uri) if uri.starts_with("data:") => decode_data_uri(uri).map_err(err)?,
+            gltf::buffer::Source::Uri(uri) => {
+                let folder = folder.ok_or_else(|| err(format!("external URI '{uri}' with no folder to read it from")))?;
+                let path = safe_relative_path(folder, uri).map_err(err)?;
+                std::fs::read(&path).map_err(|e| err(format!("cannot read '{}': {e}", path.display())))?
+            }
+        };
+        if data.len() < buffer.length() {
+            return Err(err(format!(
+                "holds {} bytes but byteLength says {}",
+                data.len(),
+                buffer.length()
+            )));
+        }
+        out.push(data);
+    }
+    Ok(out)
+}
+
+fn decode_data_uri(uri: &str) -> Result<Vec<u8>, String> {
+    let comma = uri.find(',').ok_or("data URI without a comma")?;
+    let (header, payload) = (&uri[..comma], &uri[comma + 1..]);
+    if !header.ends_with(";base64") {
+        return Err("only base64 data URIs are supported".into());
+    }
+    base64::engine::general_purpose::STANDARD
+        .decode(payload.trim())
+        .map_err(|e| format!("bad base64 in data URI: {e}"))
+}
+
+/// Resolves a relative URI reference inside `folder`, refusing anything that could leave it:
+/// schemes (`http:`, `file:`), absolute paths, drive letters, backslashes, `..` components, and
+/// symbolic links that point outside.
+pub(crate) fn safe_relative_path(folder: &Path, uri: &str) -> Result<PathBuf, String> {
+    let decoded = percent_decode(uri)?;
+    let refuse = |why: &str| Err(format!("URI '{uri}' {why}: a buffer must lie inside the file's folder"));
+    if decoded.contains('\\') || decoded.contains('\0') {
+        return refuse("contains a backslash or NUL");
+    }
+    if let Some(colon) = decoded.find(':') {
+        if !decoded[..colon].contains('/') {
+            return refuse("has a scheme or drive letter");
+        }
+    }
+    let rel = Path::new(&decoded);
+    if rel.is_absolute() || decoded.starts_with('/') {
+        return refuse("is absolute");
+    }
+    if rel.components().any(|c| !matches!(c, Component::Normal(_) | Component::CurDir)) {
+        return refuse("leaves the folder");
+    }
+    let joined = folder.join(rel);
+    let canon_folder = folder
+        .canonicalize()
+        .or_else(|_| std::env::current_dir().and_then(|d| d.join(folder).canonicalize()))
+        .map_err(|e| format!("cannot resolve the file's folder: {e}"))?;
+    let canon = joined
+        .canonicalize()
+        .map_err(|e| format!("cannot open '{}': {e}", joined.display()))?;
+    if !canon.starts_with(&canon_folder) {
+        return refuse("resolves (through a link) outside the folder");
+    }
+    Ok(canon)
+}
+
+fn percent_decode(s: &str) -> Result<String, String> {
+    let bytes = s.as_bytes();
+    let mut out = Vec::with_capacity(bytes.len());
+    let mut i = 0;
+    while i < bytes.len() {
+        if bytes[i] == b'%' {
+            let hex = s.get(i + 1..i + 3).ok_or("truncated percent escape")?;
+            let v = u8::from_str_radix(hex, 16).map_err(|_| format!("bad percent escape '%{hex}'"))?;
+            out.push(v);
+            i += 3;
+        } else {
+            out.push(bytes[i]);
+            i += 1;
+        }
+    }
+    String::from_utf8(out).map_err(|_| "URI is not UTF-8 after decoding".to_string())
+}
+
+// ---------------------------------------------------------------------------------------------
+// Nodes
+
+fn read_local(file: &Path, node: &gltf::Node) -> Result<LocalTransform, RigError> {
+    let element = format!("nodes[{}]", node.index());
+    match node.transform() {
+        gltf::scene::Transform::Matrix { matrix } => {
+            let m = Matrix4::from_fn(|r, c| matrix[c][r] as f64);
+            if m.iter().any(|x| !x.is_finite()) {
+                return Err(invalid(file, element, "matrix has a non-finite entry"));
+            }
+            Ok(LocalTransform::Matrix(m))
+        }
+        gltf::scene::Transform::Decomposed {
+            translation,
+            rotation,
+            scale,
+        } => {
+            let all = translation.iter().chain(&rotation).chain(&scale);
+            if all.clone().any(|x| !x.is_finite()) {
+                return Err(invalid(file, element, "translation, rotation or scale is not finite"));
+            }
+            let rotation = unit_quaternion(rotation.map(|x| x as f64))
+                .ok_or_else(|| invalid(file, element, "rotation quaternion is zero"))?;
+            Ok(LocalTransform::Trs(Trs {
+                translation: Vector3::from(translation.map(|x| x as f64)),
+                rotation,
+                scale: Vector3::from(scale.map(|x| x as f64)),
+            }))
+        }
+    }
+}
+
+/// Reads the hierarchy and checks it is a forest (one parent per node, no cycle).
+fn read_nodes(file: &Path, doc: &gltf::Document) -> Result<(Vec<Node>, Vec<usize>), RigError> {
+    let mut nodes = Vec::new();
+    for node in doc.nodes() {
+        nodes.push(Node {
+            name: node.name().map(str::to_string),
+            parent: None,
+            children: node.children().map(|c| c.index()).collect(),
+            rest: read_local(file, &node)?,
+        });
+    }
+    for n in 0..nodes.len() {
+        for k in 0..nodes[n].children.len() {
+            let c = nodes[n].children[k];
+            if let Some(p) = nodes[c].parent {
+                return Err(invalid(
+                    file,
+                    format!("nodes[{c}]"),
+                    format!("has two parents (nodes[{p}] and nodes[{n}])"),
+                ));
+            }
+            nodes[c].parent = Some(n);
+        }
+    }
+    let mut order = Vec::with_capacity(nodes.len());
+    let mut stack: Vec<usize> = (0..nodes.len()).rev().filter(|&n| nodes[n].parent.is_none()).collect();
+    while let Some(n) = stack.pop() {
+        order.push(n);
+        stack.extend(nodes[n].children.iter().rev());
+    }
+    if order.len() != nodes.len() {
+        let stuck = (0..nodes.len()).find(|n| !order.contains(n)).unwrap_or(0);
+        return Err(invalid(file, format!("nodes[{stuck}]"), "is part of a cycle in the node hierarchy"));
+    }
+    Ok((nodes, order))
+}
+
+// ---------------------------------------------------------------------------------------------
+// Skins
+
+fn read_skins(src: &Source, doc: &gltf::Document) -> Result<Vec<Skin>, RigError> {
+    let mut skins = Vec::new();
+    for skin in doc.skins() {
+        let joints: Vec<usize> = skin.joints().map(|n| n.index()).collect();
+        if joints.is_empty() {
+            return Err(invalid(src.file, format!("skins[{}]", skin.index()), "has no joints"));
+        }
+        if joints.len() > u16::MAX as usize {
+            return Err(invalid(src.file, format!("skins[{}]", skin.index()), "has more than 65535 joints"));
+        }
+        let inverse_bind = match skin.inverse_bind_matrices() {
+            None => vec![Matrix4::identity(); joints.len()],
+            Some(acc) => {
+                let role = format!("inverseBindMatrices of skins[{}]", skin.index());
+                let v = accessor::read(src, doc, acc.index(), &role, &[16], false)?;
+                if v.count() < joints.len() {
+                    return Err(invalid(
+                        src.file,
+                        format!("skins[{}]", skin.index()),
+                        format!("{} inverse bind matrices for {} joints", v.count(), joints.len()),
+                    ));
+                }
+                if v.data.iter().any(|x| !x.is_finite()) {
+                    return Err(invalid(src.file, role, "non-finite matrix entry"));
+                }
+                (0..joints.len())
+                    .map(|j| Matrix4::from_column_slice(v.element(j)))
+                    .collect()
+            }
+        };
+        skins.push(Skin {
+            name: skin.name().map(str::to_string),
+            joints,
+            inverse_bind,
+        });
+    }
+    Ok(skins)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Skinned meshes
+
+fn read_bodies(
+    src: &Source,
+    doc: &gltf::Document,
+    skins: &[Skin],
+    warnings: &mut Vec<String>,
+) -> Result<Vec<Body>, RigError> {
+    let mut bodies = Vec::new();
+    for node in doc.nodes() {
+        let Some(mesh) = node.mesh() else { continue };
+        let Some(skin) = node.skin() else {
+            warnings.push(format!(
+                "nodes[{}] carries meshes[{}] without a skin: not posed",
+                node.index(),
+                mesh.index()
+            ));
+            continue;
+        };
+        let name = node
+            .name()
+            .or(mesh.name())
+            .map_or_else(|| format!("body{}", bodies.len()), str::to_string);
+        let mut body = Body {
+            name,
+            node: node.index(),
+            mesh: mesh.index(),
+            skin: skin.index(),
+            positions: Vec::new(),
+            normals: Vec::new(),
+            weights: SkinWeights::with_capacity(0),
+            triangles: Vec::new(),
+            primitives: Vec::new(),
+        };
+        let mut has_normals = true;
+        for prim in mesh.primitives() {
+            has_normals &= read_primitive(src, doc, &prim, mesh.index(), &skins[skin.index()], &mut body, warnings)?;
+        }
+        if body.positions.is_empty() {
+            warnings.push(format!("meshes[{}] has no triangle primitive: skipped", mesh.index()));
+            continue;
+        }
+        if !has_normals {
+            body.normals = area_weighted_normals(&body.positions, &body.triangles);
+        }
+        bodies.push(body);
+    }
+    Ok(bodies)
+}
+
+/// Appends one primitive to `body`; returns whether it carried NORMAL.
+fn read_primitive(
+    src: &Source,
+    doc: &gltf::Document,
+    prim: &gltf::Primitive,
+    mesh: usize,
+    skin: &Skin,
+    body: &mut Body,
+    warnings: &mut Vec<String>,
+) -> Result<bool, RigError> {
+    use gltf::mesh::Mode;
+    let at = format!("meshes[{mesh}].primitives[{}]", prim.index());
+    let mode = prim.mode();
+    if !matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
+        warnings.push(format!("{at}: mode {mode:?} is not triangles: ignored"));
+        return Ok(true);
+    }
+    let pos_acc = prim
+        .get(&gltf::Semantic::Positions)
+        .ok_or_else(|| invalid(src.file, &at, "has no POSITION"))?;
+    let pos = accessor::read(src, doc, pos_acc.index(), &format!("POSITION of {at}"), &[3], false)?;
+    let n = pos.count();
+    if pos.data.iter().any(|x| !x.is_finite()) {
+        return Err(invalid(src.file, &at, "POSITION holds a non-finite value"));
+    }
+    if (body.positions.len() + n) as u64 > u32::MAX as u64 {
+        return Err(invalid(src.file, &at, "more than 2^32 vertices in one mesh"));
+    }
+    let normals = match prim.get(&gltf::Semantic::Normals) {
+        Some(acc) => {
+            let v = accessor::read(src, doc, acc.index(), &format!("NORMAL of {at}"), &[3], false)?;
+            if v.count() != n {
+                return Err(invalid(src.file, &at, format!("NORMAL has {} elements, POSITION {}", v.count(), n)));
+            }
+            Some(v)
+        }
+        None => None,
+    };
+    let weights = read_weights(src, doc, prim, &at, n, skin, warnings)?;
+    let indices = match prim.indices() {
+        Some(acc) => accessor::read_indices(src, doc, acc.index(), &format!("indices of {at}"), &[1], n as u64)?.1,
+        None => (0..n as u32).collect(),
+    };
+    let local_tris = triangulate(mode, &indices);
+    let first_vertex = body.positions.len();
+    let first_triangle = body.triangles.len();
+    body.positions.extend((0..n).map(|i| Point3::from_slice(pos.element(i))));
+    match normals {
+        Some(v) => body.normals.extend((0..n).map(|i| {
+            let nv = Vector3::from_column_slice(v.element(i));
+            let len = nv.norm();
+            if len.is_finite() && len > 1e-12 { nv / len } else { Vector3::zeros() }
+        })),
+        None => body.normals.extend(std::iter::repeat_n(Vector3::zeros(), n)),
+    }
+    for r in 0..n {
+        let (j, w) = weights.row_slices(r);
+        let row: Vec<(u16, f64)> = j.iter().copied().zip(w.iter().copied()).collect();
+        body.weights.push_row(&row);
+    }
+    let off = first_vertex as u32;
+    body.triangles
+        .extend(local_tris.iter().map(|t| [t[0] + off, t[1] + off, t[2] + off]));
+    body.primitives.push(PrimitiveRange {
+        mesh,
+        primitive: prim.index(),
+        first_vertex,
+        vertex_count: n,
+        first_triangle,
+        triangle_count: local_tris.len(),
+    });
+    Ok(normals_present(prim))
+}
+
+fn normals_present(prim: &gltf::Primitive) -> bool {
+    prim.get(&gltf::Semantic::Normals).is_some()
+}
+
+/// Reads JOINTS_0/1 and WEIGHTS_0/1 into normalized rows, with the fallbacks documented on
+/// [`crate::rig`]: invalid (NaN, negative) weights are dropped, rows are renormalized, a vertex
+/// with no usable weight follows the skin's first joint; each fallback is counted in `warnings`.
+fn read_weights(
+    src: &Source,
+    doc: &gltf::Document,
+    prim: &gltf::Primitive,
+    at: &str,
+    n: usize,
+    skin: &Skin,
+    warnings: &mut Vec<String>,
+) -> Result<SkinWeights, RigError> {
+    let mut raw: Vec<Vec<(u16, f64)>> = vec![Vec::with_capacity(4); n];
+    for set in 0..2u32 {
+        let (ja, wa) = (
+            prim.get(&gltf::Semantic::Joints(set)),
+            prim.get(&gltf::Semantic::Weights(set)),
+        );
+        let (ja, wa) = match (ja, wa) {
+            (Some(j), Some(w)) => (j, w),
+            (None, None) if set > 0 => break,
+            (None, None) => return Err(invalid(src.file, at, "skinned primitive without JOINTS_0 / WEIGHTS_0")),
+            _ => return Err(invalid(src.file, at, format!("JOINTS_{set} and WEIGHTS_{set} must come together"))),
+        };
+        let (_, joints) = accessor::read_indices(src, doc, ja.index(), &format!("JOINTS_{set} of {at}"), &[4], 1 << 16)?;
+        let weights = accessor::read(src, doc, wa.index(), &format!("WEIGHTS_{set} of {at}"), &[4], true)?;
+        if joints.len() != 4 * n || weights.data.len() != 4 * n {
+            return Err(invalid(src.file, at, format!("JOINTS_{set} / WEIGHTS_{set} counts differ from POSITION ({n})")));
+        }
+        for v in 0..n {
+            for k in 0..4 {
+                let (j, w) = (joints[4 * v + k], weights.data[4 * v + k]);
+                if w != 0.0 && j as usize >= skin.joints.len() {
+                    return Err(invalid(
+                        src.file,
+                        format!("JOINTS_{set} of {at}"),
+                        format!("vertex {v} uses joint {j} with weight {w}, but the skin has {} joints", skin.joints.len()),
+                    ));
+                }
+                raw[v].push((j as u16, w));
+            }
+        }
+    }
+    let mut out = SkinWeights::with_capacity(n);
+    let (mut invalid_rows, mut renormalized, mut empty) = (0, 0, 0);
+    let mut row = Vec::with_capacity(8);
+    for r in &raw {
+        let fixes = normalize_row(r, &mut row);
+        invalid_rows += fixes.dropped_invalid as usize;
+        renormalized += fixes.renormalized as usize;
+        if fixes.empty {
+            empty += 1;
+            row.push((0, 1.0));
+        }
+        out.push_row(&row);
+    }
+    if invalid_rows > 0 {
+        warnings.push(format!("{at}: {invalid_rows} vertices had NaN, infinite or negative weights (dropped)"));
+    }
+    if renormalized > 0 {
+        warnings.push(format!("{at}: {renormalized} vertices had weights not summing to 1 (renormalized)"));
+    }
+    if empty > 0 {
+        warnings.push(format!("{at}: {empty} vertices had no usable weight (bound to the skin's first joint)"));
+    }
+    Ok(out)
+}
+
+fn triangulate(mode: gltf::mesh::Mode, idx: &[u32]) -> Vec<[u32; 3]> {
+    use gltf::mesh::Mode;
+    match mode {
+        Mode::TriangleStrip => (2..idx.len())
+            .map(|i| {
+                if i % 2 == 0 {
+                    [idx[i - 2], idx[i - 1], idx[i]]
+                } else {
+                    [idx[i - 1], idx[i - 2], idx[i]]
+                }
+            })
+            .collect(),
+        Mode::TriangleFan => (2..idx.len()).map(|i| [idx[0], idx[i - 1], idx[i]]).collect(),
+        _ => idx.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
+    }
+}
+
+/// Area-weighted vertex normals of a triangle soup (zero for isolated vertices).
+pub fn area_weighted_normals(positions: &[Point3<f64>], triangles: &[[u32; 3]]) -> Vec<Vector3<f64>> {
+    let mut normals = vec![Vector3::zeros(); positions.len()];
+    for t in triangles {
+        let [a, b, c] = t.map(|i| positions[i as usize]);
+        let n = (b - a).cross(&(c - a));
+        for &i in t {
+            normals[i as usize] += n;
+        }
+    }
+    for n in &mut normals {
+        let len = n.norm();
+        *n = if len > 1e-300 { *n / len } else { Vector3::zeros() };
+    }
+    normals
+}
+
+// ---------------------------------------------------------------------------------------------
+// Animations
+
+fn read_animations(
+    src: &Source,
+    doc: &gltf::Document,
+    warnings: &mut Vec<String>,
+) -> Result<Vec<Animation>, RigError> {
+    let mut out = Vec::new();
+    for anim in doc.animations() {
+        let mut channels = Vec::new();
+        for ch in anim.channels() {
+            let at = format!("animations[{}].channels[{}]", anim.index(), ch.index());
+            let property = match ch.target().property() {
+                gltf::animation::Property::Translation => Property::Translation,
+                gltf::animation::Property::Rotation => Property::Rotation,
+                gltf::animation::Property::Scale => Property::Scale,
+                gltf::animation::Property::MorphTargetWeights => {
+                    warnings.push(format!("{at}: morph target weights are not posed (ignored)"));
+                    continue;
+                }
+            };
+            channels.push(read_channel(src, doc, &ch, &at, property)?);
+        }
+        out.push(Animation::new(anim.name().map(str::to_string), channels));
+    }
+    Ok(out)
+}
+
+fn read_channel(
+    src: &Source,
+    doc: &gltf::Document,
+    ch: &gltf::animation::Channel,
+    at: &str,
+    property: Property,
+) -> Result<Channel, RigError> {
+    let sampler = ch.sampler();
+    let interpolation = match sampler.interpolation() {
+        gltf::animation::Interpolation::Linear => Interpolation::Linear,
+        gltf::animation::Interpolation::Step => Interpolation::Step,
+        gltf::animation::Interpolation::CubicSpline => Interpolation::CubicSpline,
+    };
+    let input = accessor::read(src, doc, sampler.input().index(), &format!("input of {at}"), &[1], false)?;
+    let times = input.data;
+    if times.is_empty() {
+        return Err(invalid(src.file, at, "sampler input has no key"));
+    }
+    if times.iter().any(|t| !t.is_finite()) || times.windows(2).any(|w| w[1] <= w[0]) {
+        return Err(invalid(src.file, at, "key times are not finite and strictly increasing"));
+    }
+    let comps = property.components();
+    let output = accessor::read(src, doc, sampler.output().index(), &format!("output of {at}"), &[comps], false)?;
+    let per_key = if interpolation == Interpolation::CubicSpline { 3 } else { 1 };
+    if output.count() != times.len() * per_key {
+        return Err(invalid(
+            src.file,
+            at,
+            format!("{} output values for {} keys ({:?})", output.count(), times.len(), interpolation),
+        ));
+    }
+    if output.data.iter().any(|x| !x.is_finite()) {
+        return Err(invalid(src.file, at, "output holds a non-finite value"));
+    }
+    Ok(Channel {
+        node: ch.target().node().index(),
+        property,
+        interpolation,
+        times,
+        values: output.data,
+    })
+}
