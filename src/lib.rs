@@ -18,7 +18,7 @@
 //! Everything that does not depend on the pose is precomputed once per rig
 //! ([`frames::Precomputed`]); every frame is a pure function of the pose.
 
-
+pub mod frames;
 pub mod mesh;
 pub mod output;
 pub mod rig;

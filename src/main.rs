@@ -1,1 +1,8 @@
-fn main(){}
+//! `contact-skin`: command-line front end. See `contact-skin --help`.
+
+mod cli;
+
+fn main() {
+    let code = cli::run();
+    std::process::exit(code);
+}

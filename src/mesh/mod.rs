@@ -1,1 +1,210 @@
-//! Welded topology (placeholder).
+//! Welded topology of a skinned body.
+//!
+//! glTF splits vertices along UV and normal seams, so a closed character is an open soup of
+//! patches in the file. Geometry processing needs the manifold surface: [`WeldedMesh::weld`]
+//! merges file vertices whose bind positions coincide (within a tolerance relative to the
+//! bounding box), keeps the map back to the file vertices so every result can be written to
+//! every split copy, and reports what is not a clean 2-manifold instead of failing on it.
+
+use nalgebra::Point3;
+use std::collections::HashMap;
+
+/// Default weld tolerance, relative to the bounding-box diagonal.
+pub const WELD_TOLERANCE: f64 = 1e-6;
+
+/// What is not a closed, consistently oriented 2-manifold.
+#[derive(Clone, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct TopologyReport {
+    /// Edges with one face (open border).
+    pub boundary_edges: usize,
+    /// Edges with more than two faces.
+    pub non_manifold_edges: usize,
+    /// Manifold edges whose two faces traverse them in the same direction.
+    pub inconsistent_edges: usize,
+    /// Faces with a repeated welded vertex or zero area.
+    pub degenerate_faces: usize,
+    /// Faces that repeat another face's vertex set.
+    pub duplicate_faces: usize,
+    /// Welded vertices used by no face.
+    pub isolated_vertices: usize,
+}
+
+impl TopologyReport {
+    /// True for a closed, consistently oriented 2-manifold without degenerate faces.
+    pub fn is_closed_manifold(&self) -> bool {
+        *self == TopologyReport::default()
+    }
+}
+
+/// The welded surface of one body.
+#[derive(Clone, Debug)]
+pub struct WeldedMesh {
+    /// Welded vertex of each file vertex.
+    pub to_welded: Vec<u32>,
+    /// First file vertex of each welded vertex (its representative).
+    pub representative: Vec<u32>,
+    /// Triangles in welded indices (same order as the file's triangles).
+    pub triangles: Vec<[u32; 3]>,
+    /// Defects found.
+    pub report: TopologyReport,
+}
+
+impl WeldedMesh {
+    /// Number of welded vertices.
+    pub fn vertex_count(&self) -> usize {
+        self.representative.len()
+    }
+
+    /// Number of file vertices merged away (seam copies).
+    pub fn seams_welded(&self) -> usize {
+        self.to_welded.len() - self.representative.len()
+    }
+
+    /// Welds `positions` (file vertices) with a tolerance of [`WELD_TOLERANCE`] times the
+    /// bounding-box diagonal and re-indexes `triangles`.
+    pub fn weld(positions: &[Point3<f64>], triangles: &[[u32; 3]]) -> Self {
+        let tol = WELD_TOLERANCE * bbox_diagonal(positions).max(f64::MIN_POSITIVE);
+        let (to_welded, representative) = weld_points(positions, tol);
+        let welded: Vec<[u32; 3]> = triangles
+            .iter()
+            .map(|t| t.map(|i| to_welded[i as usize]))
+            .collect();
+        let report = analyse(positions, &representative, &welded);
+        Self {
+            to_welded,
+            representative,
+            triangles: welded,
+            report,
+        }
+    }
+
+    /// Gathers per-welded-vertex values from per-file-vertex values (representatives).
+    pub fn gather<T: Copy>(&self, file_values: &[T]) -> Vec<T> {
+        self.representative
+            .iter()
+            .map(|&f| file_values[f as usize])
+            .collect()
+    }
+
+    /// Scatters per-welded-vertex values back to every file vertex (all seam copies).
+    pub fn scatter<T: Copy>(&self, welded_values: &[T]) -> Vec<T> {
+        self.to_welded
+            .iter()
+            .map(|&w| welded_values[w as usize])
+            .collect()
+    }
+}
+
+/// Diagonal of the axis-aligned bounding box (0 for no point).
+pub fn bbox_diagonal(points: &[Point3<f64>]) -> f64 {
+    let Some(first) = points.first() else {
+        return 0.0;
+    };
+    let (mut lo, mut hi) = (first.coords, first.coords);
+    for p in points {
+        lo = lo.inf(&p.coords);
+        hi = hi.sup(&p.coords);
+    }
+    (hi - lo).norm()
+}
+
+/// Merges points closer than `tol` (in file order: the first point of a cluster represents it).
+fn weld_points(positions: &[Point3<f64>], tol: f64) -> (Vec<u32>, Vec<u32>) {
+    let cell = |p: &Point3<f64>| {
+        [
+            (p.x / tol).floor() as i64,
+            (p.y / tol).floor() as i64,
+            (p.z / tol).floor() as i64,
+        ]
+    };
+    let mut grid: HashMap<[i64; 3], Vec<u32>> = HashMap::with_capacity(positions.len());
+    let mut to_welded = Vec::with_capacity(positions.len());
+    let mut representative: Vec<u32> = Vec::new();
+    for (i, p) in positions.iter().enumerate() {
+        let c = cell(p);
+        let mut found = None;
+        for dx in -1..=1 {
+            for dy in -1..=1 {
+                for dz in -1..=1 {
+                    let key = [c[0] + dx, c[1] + dy, c[2] + dz];
+                    for &w in grid.get(&key).map(Vec::as_slice).unwrap_or(&[]) {
+                        let q = &positions[representative[w as usize] as usize];
+                        if (p - q).norm() <= tol && found.is_none_or(|f| w < f) {
+                            found = Some(w);
+                        }
+                    }
+                }
+            }
+        }
+        let w = found.unwrap_or_else(|| {
+            let w = representative.len() as u32;
+            representative.push(i as u32);
+            grid.entry(c).or_default().push(w);
+            w
+        });
+        to_welded.push(w);
+    }
+    (to_welded, representative)
+}
+
+fn analyse(positions: &[Point3<f64>], representative: &[u32], tris: &[[u32; 3]]) -> TopologyReport {
+    let mut report = TopologyReport::default();
+    // Directed edge counts per undirected edge: (forward a<b, backward).
+    let mut edges: HashMap<(u32, u32), (u32, u32)> = HashMap::with_capacity(tris.len() * 2);
+    let mut faces: HashMap<[u32; 3], u32> = HashMap::with_capacity(tris.len());
+    let mut used = vec![false; representative.len()];
+    for t in tris {
+        if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] || area(positions, representative, t) == 0.0
+        {
+            report.degenerate_faces += 1;
+        }
+        let mut key = *t;
+        key.sort_unstable();
+        *faces.entry(key).or_default() += 1;
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            used[a as usize] = true;
+            if a == b {
+                continue;
+            }
+            let e = edges.entry((a.min(b), a.max(b))).or_default();
+            if a < b {
+                e.0 += 1;
+            } else {
+                e.1 += 1;
+            }
+        }
+    }
+    for &(fwd, bwd) in edges.values() {
+        match fwd + bwd {
+            1 => report.boundary_edges += 1,
+            2 if fwd != 1 => report.inconsistent_edges += 1,
+            2 => {}
+            _ => report.non_manifold_edges += 1,
+        }
+    }
+    report.duplicate_faces = faces.values().map(|&c| c as usize - 1).sum();
+    report.isolated_vertices = used.iter().filter(|&&u| !u).count();
+    report
+}
+
+fn area(positions: &[Point3<f64>], representative: &[u32], t: &[u32; 3]) -> f64 {
+    let [a, b, c] = t.map(|w| positions[representative[w as usize] as usize]);
+    (b - a).cross(&(c - a)).norm() * 0.5
+}
+
+/// Signed volume enclosed by a triangle mesh (divergence theorem; positive for an outward
+/// oriented closed surface).
+pub fn signed_volume(positions: &[Point3<f64>], triangles: &[[u32; 3]]) -> f64 {
+    let origin = positions
+        .first()
+        .map_or(nalgebra::Vector3::zeros(), |p| p.coords);
+    triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| positions[i as usize].coords - origin);
+            a.dot(&b.cross(&c))
+        })
+        .sum::<f64>()
+        / 6.0
+}

@@ -39,10 +39,18 @@ impl GlbBuilder {
             },
             ..Default::default()
         };
-        Self { root, bin: Vec::new() }
+        Self {
+            root,
+            bin: Vec::new(),
+        }
     }
 
-    fn view(&mut self, bytes: &[u8], target: Target, stride: Option<usize>) -> json::Index<json::buffer::View> {
+    fn view(
+        &mut self,
+        bytes: &[u8],
+        target: Target,
+        stride: Option<usize>,
+    ) -> json::Index<json::buffer::View> {
         while self.bin.len() % 4 != 0 {
             self.bin.push(0);
         }
@@ -75,7 +83,8 @@ impl GlbBuilder {
         target: Target,
         min_max: Option<(Vec<f32>, Vec<f32>)>,
     ) -> json::Index<json::Accessor> {
-        let stride = (target == Target::Vertex && type_ == json::accessor::Type::Vec4
+        let stride = (target == Target::Vertex
+            && type_ == json::accessor::Type::Vec4
             && component != json::accessor::ComponentType::F32)
             .then_some(bytes.len() / count.max(1))
             .filter(|s| s % 4 == 0 && *s > 0);
@@ -102,7 +111,12 @@ impl GlbBuilder {
 
     /// Appends `f32` elements of `N` components; `with_bounds` records `min` / `max`
     /// (required for POSITION and animation inputs).
-    pub fn push_f32<const N: usize>(&mut self, data: &[[f32; N]], target: Target, with_bounds: bool) -> json::Index<json::Accessor> {
+    pub fn push_f32<const N: usize>(
+        &mut self,
+        data: &[[f32; N]],
+        target: Target,
+        with_bounds: bool,
+    ) -> json::Index<json::Accessor> {
         let type_ = match N {
             1 => json::accessor::Type::Scalar,
             2 => json::accessor::Type::Vec2,
@@ -122,13 +136,29 @@ impl GlbBuilder {
             }
             (lo.to_vec(), hi.to_vec())
         });
-        let bytes: Vec<u8> = data.iter().flatten().flat_map(|x| x.to_le_bytes()).collect();
-        self.accessor(&bytes, data.len(), json::accessor::ComponentType::F32, type_, false, target, bounds)
+        let bytes: Vec<u8> = data
+            .iter()
+            .flatten()
+            .flat_map(|x| x.to_le_bytes())
+            .collect();
+        self.accessor(
+            &bytes,
+            data.len(),
+            json::accessor::ComponentType::F32,
+            type_,
+            false,
+            target,
+            bounds,
+        )
     }
 
     /// Appends triangle indices as `u32`.
     pub fn push_indices(&mut self, triangles: &[[u32; 3]]) -> json::Index<json::Accessor> {
-        let bytes: Vec<u8> = triangles.iter().flatten().flat_map(|x| x.to_le_bytes()).collect();
+        let bytes: Vec<u8> = triangles
+            .iter()
+            .flatten()
+            .flat_map(|x| x.to_le_bytes())
+            .collect();
         self.accessor(
             &bytes,
             triangles.len() * 3,
@@ -142,7 +172,11 @@ impl GlbBuilder {
 
     /// Appends JOINTS_n data as `u16` VEC4.
     pub fn push_joints(&mut self, joints: &[[u16; 4]]) -> json::Index<json::Accessor> {
-        let bytes: Vec<u8> = joints.iter().flatten().flat_map(|x| x.to_le_bytes()).collect();
+        let bytes: Vec<u8> = joints
+            .iter()
+            .flatten()
+            .flat_map(|x| x.to_le_bytes())
+            .collect();
         self.accessor(
             &bytes,
             joints.len(),

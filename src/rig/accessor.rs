@@ -70,19 +70,35 @@ fn component(bytes: &[u8], t: DataType, normalized: bool) -> f64 {
     match t {
         DataType::I8 => {
             let v = bytes[0] as i8 as f64;
-            if normalized { (v / 127.0).max(-1.0) } else { v }
+            if normalized {
+                (v / 127.0).max(-1.0)
+            } else {
+                v
+            }
         }
         DataType::U8 => {
             let v = bytes[0] as f64;
-            if normalized { v / 255.0 } else { v }
+            if normalized {
+                v / 255.0
+            } else {
+                v
+            }
         }
         DataType::I16 => {
             let v = i16::from_le_bytes([bytes[0], bytes[1]]) as f64;
-            if normalized { (v / 32767.0).max(-1.0) } else { v }
+            if normalized {
+                (v / 32767.0).max(-1.0)
+            } else {
+                v
+            }
         }
         DataType::U16 => {
             let v = u16::from_le_bytes([bytes[0], bytes[1]]) as f64;
-            if normalized { v / 65535.0 } else { v }
+            if normalized {
+                v / 65535.0
+            } else {
+                v
+            }
         }
         DataType::U32 => u32::from_le_bytes([bytes[0], bytes[1], bytes[2], bytes[3]]) as f64,
         DataType::F32 => f32::from_le_bytes([bytes[0], bytes[1], bytes[2], bytes[3]]) as f64,
@@ -108,11 +124,12 @@ impl Ctx<'_, '_> {
     /// The bytes of a buffer view, checked against its buffer.
     fn view_bytes(&self, view: &gltf::buffer::View) -> Result<&[u8], RigError> {
         let buffer = view.buffer().index();
-        let data = self
-            .src
-            .buffers
-            .get(buffer)
-            .ok_or_else(|| self.err(format!("bufferViews[{}] names a missing buffer", view.index())))?;
+        let data = self.src.buffers.get(buffer).ok_or_else(|| {
+            self.err(format!(
+                "bufferViews[{}] names a missing buffer",
+                view.index()
+            ))
+        })?;
         let end = view.offset().checked_add(view.length());
         match end {
             Some(end) if end <= data.len() => Ok(&data[view.offset()..end]),
@@ -216,7 +233,15 @@ pub fn read(
     let count = accessor.count();
     let mut data = Vec::new();
     match accessor.view() {
-        Some(view) => ctx.read_strided(&view, accessor.offset(), count, dims, t, normalized, &mut data)?,
+        Some(view) => ctx.read_strided(
+            &view,
+            accessor.offset(),
+            count,
+            dims,
+            t,
+            normalized,
+            &mut data,
+        )?,
         None => {
             if count > MAX_VIEWLESS_ELEMENTS {
                 return Err(ctx.err(format!(
@@ -244,7 +269,9 @@ fn apply_sparse(
     use gltf::accessor::sparse::IndexType;
     let n = sparse.count();
     if n > count {
-        return Err(ctx.err(format!("sparse.count {n} exceeds the accessor count {count}")));
+        return Err(ctx.err(format!(
+            "sparse.count {n} exceeds the accessor count {count}"
+        )));
     }
     let indices = sparse.indices();
     let itype = match indices.index_type() {
@@ -253,10 +280,26 @@ fn apply_sparse(
         IndexType::U32 => DataType::U32,
     };
     let mut idx = Vec::new();
-    ctx.read_strided(&indices.view(), indices.offset(), n, 1, itype, false, &mut idx)?;
+    ctx.read_strided(
+        &indices.view(),
+        indices.offset(),
+        n,
+        1,
+        itype,
+        false,
+        &mut idx,
+    )?;
     let values = sparse.values();
     let mut vals = Vec::new();
-    ctx.read_strided(&values.view(), values.offset(), n, dims, t, normalized, &mut vals)?;
+    ctx.read_strided(
+        &values.view(),
+        values.offset(),
+        n,
+        dims,
+        t,
+        normalized,
+        &mut vals,
+    )?;
     let mut previous: Option<usize> = None;
     for (k, &i) in idx.iter().enumerate() {
         let i = i as usize;
@@ -298,7 +341,12 @@ pub fn read_indices(
                 file: src.file.to_path_buf(),
                 accessor: index,
                 role: role.to_string(),
-                message: format!("element {} has value {} (must be below {})", k / values.dims, v, bound),
+                message: format!(
+                    "element {} has value {} (must be below {})",
+                    k / values.dims,
+                    v,
+                    bound
+                ),
             });
         }
         out.push(v as u32);

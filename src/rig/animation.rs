@@ -76,7 +76,11 @@ impl Animation {
             .iter()
             .filter_map(|c| c.times.last().copied())
             .fold(f64::NEG_INFINITY, f64::max);
-        let (start, end) = if start.is_finite() { (start, end) } else { (0.0, 0.0) };
+        let (start, end) = if start.is_finite() {
+            (start, end)
+        } else {
+            (0.0, 0.0)
+        };
         Self {
             name,
             channels,
@@ -126,7 +130,11 @@ impl Animation {
 impl Channel {
     fn value(&self, key: usize, slot: usize) -> [f64; 4] {
         let c = self.property.components();
-        let stride = if self.interpolation == Interpolation::CubicSpline { 3 } else { 1 };
+        let stride = if self.interpolation == Interpolation::CubicSpline {
+            3
+        } else {
+            1
+        };
         let base = (key * stride + slot) * c;
         let mut out = [0.0; 4];
         out[..c].copy_from_slice(&self.values[base..base + c]);
@@ -137,7 +145,11 @@ impl Channel {
     /// Before the first key and after the last, the end values hold.
     pub fn sample(&self, t: f64) -> [f64; 4] {
         let n = self.times.len();
-        let value_slot = if self.interpolation == Interpolation::CubicSpline { 1 } else { 0 };
+        let value_slot = if self.interpolation == Interpolation::CubicSpline {
+            1
+        } else {
+            0
+        };
         if n == 1 || t <= self.times[0] || t.is_nan() {
             return self.value(0, value_slot);
         }

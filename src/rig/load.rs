@@ -23,7 +23,11 @@ pub fn load(path: &Path) -> Result<Rig, RigError> {
     if meta.len() > MAX_FILE_BYTES {
         return Err(RigError::Format {
             file: path.to_path_buf(),
-            message: format!("file is {} bytes, above the {} byte limit", meta.len(), MAX_FILE_BYTES),
+            message: format!(
+                "file is {} bytes, above the {} byte limit",
+                meta.len(),
+                MAX_FILE_BYTES
+            ),
         });
     }
     let bytes = std::fs::read(path).map_err(io)?;
@@ -38,10 +42,12 @@ pub fn load_from_bytes(label: &Path, bytes: &[u8]) -> Result<Rig, RigError> {
 }
 
 fn load_impl(file: &Path, bytes: &[u8], folder: Option<&Path>) -> Result<Rig, RigError> {
-    let gltf = gltf::Gltf::from_slice(bytes).map_err(|e| RigError::Format {
+    let gltf = gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| RigError::Format {
         file: file.to_path_buf(),
         message: e.to_string(),
     })?;
+    validate_json(file, gltf.document.as_json())?;
+    check_enums(file, gltf.document.as_json())?;
     let buffers = resolve_buffers(file, &gltf, folder)?;
     let src = Source {
         file,
@@ -72,6 +78,112 @@ fn invalid(file: &Path, element: impl Into<String>, message: impl Into<String>) 
     }
 }
 
+/// Runs `gltf-json`'s validation (indices in range, required fields), after guarding the one
+/// hook of `gltf-json` 1.4 that indexes without a bounds check (the POSITION accessor).
+fn validate_json(file: &Path, root: &gltf::json::Root) -> Result<(), RigError> {
+    use gltf::json::validation::Validate;
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            let position =
+                gltf::json::validation::Checked::Valid(gltf::json::mesh::Semantic::Positions);
+            if prim
+                .attributes
+                .get(&position)
+                .is_some_and(|a| a.value() >= root.accessors.len())
+            {
+                return Err(invalid(
+                    file,
+                    format!("meshes[{m}].primitives[{p}].attributes.POSITION"),
+                    "accessor index out of range",
+                ));
+            }
+        }
+    }
+    let mut errors = Vec::new();
+    root.validate(root, gltf::json::Path::new, &mut |path, error| {
+        errors.push(format!("{}: {error}", path()))
+    });
+    match errors.first() {
+        None => Ok(()),
+        Some(first) => Err(RigError::Format {
+            file: file.to_path_buf(),
+            message: format!(
+                "invalid glTF: {first}{}",
+                if errors.len() > 1 {
+                    format!(" (and {} more)", errors.len() - 1)
+                } else {
+                    String::new()
+                }
+            ),
+        }),
+    }
+}
+
+/// Checks what the `gltf` crate's validation leaves out but its accessors `unwrap()`: enum
+/// values (component types, modes, paths, interpolations, semantics) and animation targets
+/// (not validated at all by `gltf-json` 1.4).
+fn check_enums(file: &Path, root: &gltf::json::Root) -> Result<(), RigError> {
+    use gltf::json::validation::Checked;
+    let bad = |element: String| Err(invalid(file, element, "invalid or unknown enum value"));
+    for (i, a) in root.accessors.iter().enumerate() {
+        if matches!(a.component_type, Checked::Invalid) || matches!(a.type_, Checked::Invalid) {
+            return bad(format!("accessors[{i}]"));
+        }
+        if let Some(s) = &a.sparse {
+            if matches!(s.indices.component_type, Checked::Invalid) {
+                return bad(format!("accessors[{i}].sparse.indices"));
+            }
+        }
+    }
+    for (i, v) in root.buffer_views.iter().enumerate() {
+        if matches!(v.target, Some(Checked::Invalid)) {
+            return bad(format!("bufferViews[{i}].target"));
+        }
+    }
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            let invalid_key = prim
+                .attributes
+                .keys()
+                .any(|k| matches!(k, Checked::Invalid));
+            if matches!(prim.mode, Checked::Invalid) || invalid_key {
+                return bad(format!("meshes[{m}].primitives[{p}]"));
+            }
+        }
+    }
+    for (a, anim) in root.animations.iter().enumerate() {
+        for (s, sampler) in anim.samplers.iter().enumerate() {
+            let n = root.accessors.len();
+            if matches!(sampler.interpolation, Checked::Invalid) {
+                return bad(format!("animations[{a}].samplers[{s}].interpolation"));
+            }
+            if sampler.input.value() >= n || sampler.output.value() >= n {
+                return Err(invalid(
+                    file,
+                    format!("animations[{a}].samplers[{s}]"),
+                    "accessor index out of range",
+                ));
+            }
+        }
+        for (c, ch) in anim.channels.iter().enumerate() {
+            let at = format!("animations[{a}].channels[{c}]");
+            if matches!(ch.target.path, Checked::Invalid) {
+                return bad(format!("{at}.target.path"));
+            }
+            if ch.target.node.value() >= root.nodes.len()
+                || ch.sampler.value() >= anim.samplers.len()
+            {
+                return Err(invalid(
+                    file,
+                    at,
+                    "target node or sampler index out of range",
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
 // ---------------------------------------------------------------------------------------------
 // Buffers
 
@@ -93,11 +205,18 @@ fn resolve_buffers(
                 .blob
                 .clone()
                 .ok_or_else(|| err("refers to the GLB binary chunk, which is missing".into()))?,
-            gltf::buffer::Source::Uri(uri) if uri.starts_with("data:") => decode_data_uri(uri).map_err(err)?,
+            gltf::buffer::Source::Uri(uri) if uri.starts_with("data:") => {
+                decode_data_uri(uri).map_err(err)?
+            }
             gltf::buffer::Source::Uri(uri) => {
-                let folder = folder.ok_or_else(|| err(format!("external URI '{uri}' with no folder to read it from")))?;
+                let folder = folder.ok_or_else(|| {
+                    err(format!(
+                        "external URI '{uri}' with no folder to read it from"
+                    ))
+                })?;
                 let path = safe_relative_path(folder, uri).map_err(err)?;
-                std::fs::read(&path).map_err(|e| err(format!("cannot read '{}': {e}", path.display())))?
+                std::fs::read(&path)
+                    .map_err(|e| err(format!("cannot read '{}': {e}", path.display())))?
             }
         };
         if data.len() < buffer.length() {
@@ -128,7 +247,11 @@ fn decode_data_uri(uri: &str) -> Result<Vec<u8>, String> {
 /// symbolic links that point outside.
 pub(crate) fn safe_relative_path(folder: &Path, uri: &str) -> Result<PathBuf, String> {
     let decoded = percent_decode(uri)?;
-    let refuse = |why: &str| Err(format!("URI '{uri}' {why}: a buffer must lie inside the file's folder"));
+    let refuse = |why: &str| {
+        Err(format!(
+            "URI '{uri}' {why}: a buffer must lie inside the file's folder"
+        ))
+    };
     if decoded.contains('\\') || decoded.contains('\0') {
         return refuse("contains a backslash or NUL");
     }
@@ -141,7 +264,10 @@ pub(crate) fn safe_relative_path(folder: &Path, uri: &str) -> Result<PathBuf, St
     if rel.is_absolute() || decoded.starts_with('/') {
         return refuse("is absolute");
     }
-    if rel.components().any(|c| !matches!(c, Component::Normal(_) | Component::CurDir)) {
+    if rel
+        .components()
+        .any(|c| !matches!(c, Component::Normal(_) | Component::CurDir))
+    {
         return refuse("leaves the folder");
     }
     let joined = folder.join(rel);
@@ -165,7 +291,8 @@ fn percent_decode(s: &str) -> Result<String, String> {
     while i < bytes.len() {
         if bytes[i] == b'%' {
             let hex = s.get(i + 1..i + 3).ok_or("truncated percent escape")?;
-            let v = u8::from_str_radix(hex, 16).map_err(|_| format!("bad percent escape '%{hex}'"))?;
+            let v =
+                u8::from_str_radix(hex, 16).map_err(|_| format!("bad percent escape '%{hex}'"))?;
             out.push(v);
             i += 3;
         } else {
@@ -196,7 +323,11 @@ fn read_local(file: &Path, node: &gltf::Node) -> Result<LocalTransform, RigError
         } => {
             let all = translation.iter().chain(&rotation).chain(&scale);
             if all.clone().any(|x| !x.is_finite()) {
-                return Err(invalid(file, element, "translation, rotation or scale is not finite"));
+                return Err(invalid(
+                    file,
+                    element,
+                    "translation, rotation or scale is not finite",
+                ));
             }
             let rotation = unit_quaternion(rotation.map(|x| x as f64))
                 .ok_or_else(|| invalid(file, element, "rotation quaternion is zero"))?;
@@ -234,14 +365,21 @@ fn read_nodes(file: &Path, doc: &gltf::Document) -> Result<(Vec<Node>, Vec<usize
         }
     }
     let mut order = Vec::with_capacity(nodes.len());
-    let mut stack: Vec<usize> = (0..nodes.len()).rev().filter(|&n| nodes[n].parent.is_none()).collect();
+    let mut stack: Vec<usize> = (0..nodes.len())
+        .rev()
+        .filter(|&n| nodes[n].parent.is_none())
+        .collect();
     while let Some(n) = stack.pop() {
         order.push(n);
         stack.extend(nodes[n].children.iter().rev());
     }
     if order.len() != nodes.len() {
         let stuck = (0..nodes.len()).find(|n| !order.contains(n)).unwrap_or(0);
-        return Err(invalid(file, format!("nodes[{stuck}]"), "is part of a cycle in the node hierarchy"));
+        return Err(invalid(
+            file,
+            format!("nodes[{stuck}]"),
+            "is part of a cycle in the node hierarchy",
+        ));
     }
     Ok((nodes, order))
 }
@@ -254,10 +392,18 @@ fn read_skins(src: &Source, doc: &gltf::Document) -> Result<Vec<Skin>, RigError>
     for skin in doc.skins() {
         let joints: Vec<usize> = skin.joints().map(|n| n.index()).collect();
         if joints.is_empty() {
-            return Err(invalid(src.file, format!("skins[{}]", skin.index()), "has no joints"));
+            return Err(invalid(
+                src.file,
+                format!("skins[{}]", skin.index()),
+                "has no joints",
+            ));
         }
         if joints.len() > u16::MAX as usize {
-            return Err(invalid(src.file, format!("skins[{}]", skin.index()), "has more than 65535 joints"));
+            return Err(invalid(
+                src.file,
+                format!("skins[{}]", skin.index()),
+                "has more than 65535 joints",
+            ));
         }
         let inverse_bind = match skin.inverse_bind_matrices() {
             None => vec![Matrix4::identity(); joints.len()],
@@ -268,7 +414,11 @@ fn read_skins(src: &Source, doc: &gltf::Document) -> Result<Vec<Skin>, RigError>
                     return Err(invalid(
                         src.file,
                         format!("skins[{}]", skin.index()),
-                        format!("{} inverse bind matrices for {} joints", v.count(), joints.len()),
+                        format!(
+                            "{} inverse bind matrices for {} joints",
+                            v.count(),
+                            joints.len()
+                        ),
                     ));
                 }
                 if v.data.iter().any(|x| !x.is_finite()) {
@@ -325,10 +475,21 @@ fn read_bodies(
         };
         let mut has_normals = true;
         for prim in mesh.primitives() {
-            has_normals &= read_primitive(src, doc, &prim, mesh.index(), &skins[skin.index()], &mut body, warnings)?;
+            has_normals &= read_primitive(
+                src,
+                doc,
+                &prim,
+                mesh.index(),
+                &skins[skin.index()],
+                &mut body,
+                warnings,
+            )?;
         }
         if body.positions.is_empty() {
-            warnings.push(format!("meshes[{}] has no triangle primitive: skipped", mesh.index()));
+            warnings.push(format!(
+                "meshes[{}] has no triangle primitive: skipped",
+                mesh.index()
+            ));
             continue;
         }
         if !has_normals {
@@ -352,26 +513,51 @@ fn read_primitive(
     use gltf::mesh::Mode;
     let at = format!("meshes[{mesh}].primitives[{}]", prim.index());
     let mode = prim.mode();
-    if !matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
+    if !matches!(
+        mode,
+        Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+    ) {
         warnings.push(format!("{at}: mode {mode:?} is not triangles: ignored"));
         return Ok(true);
     }
     let pos_acc = prim
         .get(&gltf::Semantic::Positions)
         .ok_or_else(|| invalid(src.file, &at, "has no POSITION"))?;
-    let pos = accessor::read(src, doc, pos_acc.index(), &format!("POSITION of {at}"), &[3], false)?;
+    let pos = accessor::read(
+        src,
+        doc,
+        pos_acc.index(),
+        &format!("POSITION of {at}"),
+        &[3],
+        false,
+    )?;
     let n = pos.count();
     if pos.data.iter().any(|x| !x.is_finite()) {
         return Err(invalid(src.file, &at, "POSITION holds a non-finite value"));
     }
     if (body.positions.len() + n) as u64 > u32::MAX as u64 {
-        return Err(invalid(src.file, &at, "more than 2^32 vertices in one mesh"));
+        return Err(invalid(
+            src.file,
+            &at,
+            "more than 2^32 vertices in one mesh",
+        ));
     }
     let normals = match prim.get(&gltf::Semantic::Normals) {
         Some(acc) => {
-            let v = accessor::read(src, doc, acc.index(), &format!("NORMAL of {at}"), &[3], false)?;
+            let v = accessor::read(
+                src,
+                doc,
+                acc.index(),
+                &format!("NORMAL of {at}"),
+                &[3],
+                false,
+            )?;
             if v.count() != n {
-                return Err(invalid(src.file, &at, format!("NORMAL has {} elements, POSITION {}", v.count(), n)));
+                return Err(invalid(
+                    src.file,
+                    &at,
+                    format!("NORMAL has {} elements, POSITION {}", v.count(), n),
+                ));
             }
             Some(v)
         }
@@ -379,20 +565,37 @@ fn read_primitive(
     };
     let weights = read_weights(src, doc, prim, &at, n, skin, warnings)?;
     let indices = match prim.indices() {
-        Some(acc) => accessor::read_indices(src, doc, acc.index(), &format!("indices of {at}"), &[1], n as u64)?.1,
+        Some(acc) => {
+            accessor::read_indices(
+                src,
+                doc,
+                acc.index(),
+                &format!("indices of {at}"),
+                &[1],
+                n as u64,
+            )?
+            .1
+        }
         None => (0..n as u32).collect(),
     };
     let local_tris = triangulate(mode, &indices);
     let first_vertex = body.positions.len();
     let first_triangle = body.triangles.len();
-    body.positions.extend((0..n).map(|i| Point3::from_slice(pos.element(i))));
+    body.positions
+        .extend((0..n).map(|i| Point3::from_slice(pos.element(i))));
     match normals {
         Some(v) => body.normals.extend((0..n).map(|i| {
             let nv = Vector3::from_column_slice(v.element(i));
             let len = nv.norm();
-            if len.is_finite() && len > 1e-12 { nv / len } else { Vector3::zeros() }
+            if len.is_finite() && len > 1e-12 {
+                nv / len
+            } else {
+                Vector3::zeros()
+            }
         })),
-        None => body.normals.extend(std::iter::repeat_n(Vector3::zeros(), n)),
+        None => body
+            .normals
+            .extend(std::iter::repeat_n(Vector3::zeros(), n)),
     }
     for r in 0..n {
         let (j, w) = weights.row_slices(r);
@@ -400,8 +603,11 @@ fn read_primitive(
         body.weights.push_row(&row);
     }
     let off = first_vertex as u32;
-    body.triangles
-        .extend(local_tris.iter().map(|t| [t[0] + off, t[1] + off, t[2] + off]));
+    body.triangles.extend(
+        local_tris
+            .iter()
+            .map(|t| [t[0] + off, t[1] + off, t[2] + off]),
+    );
     body.primitives.push(PrimitiveRange {
         mesh,
         primitive: prim.index(),
@@ -438,13 +644,43 @@ fn read_weights(
         let (ja, wa) = match (ja, wa) {
             (Some(j), Some(w)) => (j, w),
             (None, None) if set > 0 => break,
-            (None, None) => return Err(invalid(src.file, at, "skinned primitive without JOINTS_0 / WEIGHTS_0")),
-            _ => return Err(invalid(src.file, at, format!("JOINTS_{set} and WEIGHTS_{set} must come together"))),
+            (None, None) => {
+                return Err(invalid(
+                    src.file,
+                    at,
+                    "skinned primitive without JOINTS_0 / WEIGHTS_0",
+                ))
+            }
+            _ => {
+                return Err(invalid(
+                    src.file,
+                    at,
+                    format!("JOINTS_{set} and WEIGHTS_{set} must come together"),
+                ))
+            }
         };
-        let (_, joints) = accessor::read_indices(src, doc, ja.index(), &format!("JOINTS_{set} of {at}"), &[4], 1 << 16)?;
-        let weights = accessor::read(src, doc, wa.index(), &format!("WEIGHTS_{set} of {at}"), &[4], true)?;
+        let (_, joints) = accessor::read_indices(
+            src,
+            doc,
+            ja.index(),
+            &format!("JOINTS_{set} of {at}"),
+            &[4],
+            1 << 16,
+        )?;
+        let weights = accessor::read(
+            src,
+            doc,
+            wa.index(),
+            &format!("WEIGHTS_{set} of {at}"),
+            &[4],
+            true,
+        )?;
         if joints.len() != 4 * n || weights.data.len() != 4 * n {
-            return Err(invalid(src.file, at, format!("JOINTS_{set} / WEIGHTS_{set} counts differ from POSITION ({n})")));
+            return Err(invalid(
+                src.file,
+                at,
+                format!("JOINTS_{set} / WEIGHTS_{set} counts differ from POSITION ({n})"),
+            ));
         }
         for v in 0..n {
             for k in 0..4 {
@@ -453,7 +689,10 @@ fn read_weights(
                     return Err(invalid(
                         src.file,
                         format!("JOINTS_{set} of {at}"),
-                        format!("vertex {v} uses joint {j} with weight {w}, but the skin has {} joints", skin.joints.len()),
+                        format!(
+                            "vertex {v} uses joint {j} with weight {w}, but the skin has {} joints",
+                            skin.joints.len()
+                        ),
                     ));
                 }
                 raw[v].push((j as u16, w));
@@ -474,13 +713,19 @@ fn read_weights(
         out.push_row(&row);
     }
     if invalid_rows > 0 {
-        warnings.push(format!("{at}: {invalid_rows} vertices had NaN, infinite or negative weights (dropped)"));
+        warnings.push(format!(
+            "{at}: {invalid_rows} vertices had NaN, infinite or negative weights (dropped)"
+        ));
     }
     if renormalized > 0 {
-        warnings.push(format!("{at}: {renormalized} vertices had weights not summing to 1 (renormalized)"));
+        warnings.push(format!(
+            "{at}: {renormalized} vertices had weights not summing to 1 (renormalized)"
+        ));
     }
     if empty > 0 {
-        warnings.push(format!("{at}: {empty} vertices had no usable weight (bound to the skin's first joint)"));
+        warnings.push(format!(
+            "{at}: {empty} vertices had no usable weight (bound to the skin's first joint)"
+        ));
     }
     Ok(out)
 }
@@ -497,13 +742,18 @@ fn triangulate(mode: gltf::mesh::Mode, idx: &[u32]) -> Vec<[u32; 3]> {
                 }
             })
             .collect(),
-        Mode::TriangleFan => (2..idx.len()).map(|i| [idx[0], idx[i - 1], idx[i]]).collect(),
+        Mode::TriangleFan => (2..idx.len())
+            .map(|i| [idx[0], idx[i - 1], idx[i]])
+            .collect(),
         _ => idx.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
     }
 }
 
 /// Area-weighted vertex normals of a triangle soup (zero for isolated vertices).
-pub fn area_weighted_normals(positions: &[Point3<f64>], triangles: &[[u32; 3]]) -> Vec<Vector3<f64>> {
+pub fn area_weighted_normals(
+    positions: &[Point3<f64>],
+    triangles: &[[u32; 3]],
+) -> Vec<Vector3<f64>> {
     let mut normals = vec![Vector3::zeros(); positions.len()];
     for t in triangles {
         let [a, b, c] = t.map(|i| positions[i as usize]);
@@ -514,7 +764,11 @@ pub fn area_weighted_normals(positions: &[Point3<f64>], triangles: &[[u32; 3]]) 
     }
     for n in &mut normals {
         let len = n.norm();
-        *n = if len > 1e-300 { *n / len } else { Vector3::zeros() };
+        *n = if len > 1e-300 {
+            *n / len
+        } else {
+            Vector3::zeros()
+        };
     }
     normals
 }
@@ -537,7 +791,9 @@ fn read_animations(
                 gltf::animation::Property::Rotation => Property::Rotation,
                 gltf::animation::Property::Scale => Property::Scale,
                 gltf::animation::Property::MorphTargetWeights => {
-                    warnings.push(format!("{at}: morph target weights are not posed (ignored)"));
+                    warnings.push(format!(
+                        "{at}: morph target weights are not posed (ignored)"
+                    ));
                     continue;
                 }
             };
@@ -561,22 +817,49 @@ fn read_channel(
         gltf::animation::Interpolation::Step => Interpolation::Step,
         gltf::animation::Interpolation::CubicSpline => Interpolation::CubicSpline,
     };
-    let input = accessor::read(src, doc, sampler.input().index(), &format!("input of {at}"), &[1], false)?;
+    let input = accessor::read(
+        src,
+        doc,
+        sampler.input().index(),
+        &format!("input of {at}"),
+        &[1],
+        false,
+    )?;
     let times = input.data;
     if times.is_empty() {
         return Err(invalid(src.file, at, "sampler input has no key"));
     }
     if times.iter().any(|t| !t.is_finite()) || times.windows(2).any(|w| w[1] <= w[0]) {
-        return Err(invalid(src.file, at, "key times are not finite and strictly increasing"));
+        return Err(invalid(
+            src.file,
+            at,
+            "key times are not finite and strictly increasing",
+        ));
     }
     let comps = property.components();
-    let output = accessor::read(src, doc, sampler.output().index(), &format!("output of {at}"), &[comps], false)?;
-    let per_key = if interpolation == Interpolation::CubicSpline { 3 } else { 1 };
+    let output = accessor::read(
+        src,
+        doc,
+        sampler.output().index(),
+        &format!("output of {at}"),
+        &[comps],
+        false,
+    )?;
+    let per_key = if interpolation == Interpolation::CubicSpline {
+        3
+    } else {
+        1
+    };
     if output.count() != times.len() * per_key {
         return Err(invalid(
             src.file,
             at,
-            format!("{} output values for {} keys ({:?})", output.count(), times.len(), interpolation),
+            format!(
+                "{} output values for {} keys ({:?})",
+                output.count(),
+                times.len(),
+                interpolation
+            ),
         ));
     }
     if output.data.iter().any(|x| !x.is_finite()) {

@@ -112,7 +112,9 @@ impl Rig {
         {
             return Some(i);
         }
-        key.parse::<usize>().ok().filter(|&i| i < self.animations.len())
+        key.parse::<usize>()
+            .ok()
+            .filter(|&i| i < self.animations.len())
     }
 
     /// Total number of file vertices over all bodies.

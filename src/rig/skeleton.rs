@@ -61,8 +61,7 @@ impl Trs {
                 rot.column_mut(c).unscale_mut(s);
             }
         }
-        let rotation =
-            UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(rot));
+        let rotation = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(rot));
         Self {
             translation,
             rotation,

@@ -1,23 +1,574 @@
-//! Center-of-rotation skinning (placeholder, being written).
-use super::Skinned;
-use crate::rig::Body;
-use nalgebra::{Matrix4, Point3};
+//! Center-of-rotation skinning after Le and Hodgins, *Real-time Skeletal Skinning with Optimized
+//! Centers of Rotation* (ACM TOG 35(4), SIGGRAPH 2016).
+//!
+//! Every vertex `i` gets a bind-pose center of rotation `p*_i`, the area-weighted mean of the
+//! surface points whose skin weights look like its own:
+//!
+//! ```text
+//! s(w_p, w_v) = Σ_{j<k} w_pj w_pk w_vj w_vk exp(-(w_pj w_vk - w_pk w_vj)² / σ²)        (similarity)
+//! p*_i        = Σ_t s(w_i, w_t) A_t c_t / Σ_t s(w_i, w_t) A_t                           (center)
+//! ```
+//!
+//! over the triangles `t` of the bind pose (`w_t` the mean of the corner weights, `c_t` the
+//! centroid, `A_t` the area), after the triangles have been subdivided until the weights of the
+//! endpoints of every edge are within `ε` of each other (L2). A vertex without any similar
+//! triangle (a single-bone vertex, whose similarity with everything is 0) has no center and is
+//! skinned by plain linear blending. At run time (the paper's skinning equation):
+//!
+//! ```text
+//! p'_i = Σ_s w_is M_s p*_i + R_i (p_i - p*_i),   n'_i = R_i n_i,
+//! ```
+//!
+//! with `R_i` the rotation of the normalized quaternion blend `Σ_s w_is q_s` (signs aligned to
+//! the heaviest influence), `q_s` the rotation of the polar decomposition of `M_s`.
+//!
+//! # Precomputation in O(Σ_pairs V_jk · T_jk) instead of O(V · T)
+//!
+//! The similarity is a sum over joint pairs `(j, k)`, and the `(j, k)` term is nonzero only when
+//! both weight vectors contain both joints. The subtriangles are therefore bucketed per joint
+//! pair (each entry holding `w_tj`, `w_tk`, `w_tj w_tk A_t` and `w_tj w_tk A_t c_t`), and a vertex
+//! visits only the buckets of its own pairs. Vertices with bit-identical weight rows (seam copies)
+//! are computed once. Every center is computed independently, in a fixed summation order, so the
+//! result does not depend on the number of threads. The reorganization is exact: the result
+//! equals the brute-force double sum up to floating-point rounding.
 
-/// Per-vertex centers of rotation.
+use super::dqs::polar;
+use super::{lbs, unit_or_zero, Skinned};
+use crate::rig::{Body, SkinWeights};
+use nalgebra::{Matrix3, Matrix4, Point3, Quaternion, UnitQuaternion, Vector3};
+use rayon::prelude::*;
+use std::collections::HashMap;
+
+/// Parameters of the center precomputation (Le & Hodgins 2016 use σ = 0.1 and ε = 0.1).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CorParams {
+    /// Width σ of the similarity kernel `exp(-(w_pj w_vk - w_pk w_vj)² / σ²)`.
+    pub sigma: f64,
+    /// Largest L2 distance between the weight vectors of the two ends of a (sub)triangle edge.
+    pub epsilon: f64,
+    /// Cap on the per-triangle subdivision level `n` (a triangle becomes at most `n²` pieces).
+    /// Normalized weights are at most `√2` apart, so the cap only matters for `ε < √2 / cap`.
+    pub max_subdivision: u32,
+}
+
+impl Default for CorParams {
+    fn default() -> Self {
+        Self {
+            sigma: 0.1,
+            epsilon: 0.1,
+            max_subdivision: 32,
+        }
+    }
+}
+
+/// What the precomputation did, for reports and benchmarks.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct CorStats {
+    /// Vertices of the body.
+    pub vertices: usize,
+    /// Vertices with at least two influences (the only ones that can get a center).
+    pub blended_vertices: usize,
+    /// Distinct weight rows among the blended vertices (each computed once).
+    pub unique_rows: usize,
+    /// Vertices that got a center.
+    pub centers: usize,
+    /// Subtriangles after the ε-subdivision.
+    pub subtriangles: usize,
+    /// Joint pairs that occur in some vertex row.
+    pub pairs: usize,
+    /// Bucket entries (subtriangle, pair) over all pairs.
+    pub bucket_entries: usize,
+    /// Kernel evaluations (`exp` calls) of the center integrals.
+    pub kernel_evaluations: u64,
+}
+
+/// Per-vertex centers of rotation (bind pose, mesh space).
 #[derive(Clone, Debug, Default)]
 pub struct CorCenters {
-    /// Center of each file vertex; `None` for single-bone vertices (plain LBS).
+    /// Center of each file vertex; `None` where the similarity integral vanishes (single-bone
+    /// vertices, isolated vertices): such vertices are skinned by plain LBS.
     pub centers: Vec<Option<Point3<f64>>>,
 }
 
 impl CorCenters {
-    /// Precomputes the centers.
+    /// Precomputes the centers with the paper's parameters ([`CorParams::default`]).
     pub fn precompute(body: &Body) -> Self {
-        Self { centers: vec![None; body.vertex_count()] }
+        Self::precompute_with(body, &CorParams::default())
+    }
+
+    /// Precomputes the centers with explicit parameters.
+    pub fn precompute_with(body: &Body, params: &CorParams) -> Self {
+        Self::precompute_with_stats(body, params).0
+    }
+
+    /// Precomputes the centers and reports what was done.
+    pub fn precompute_with_stats(body: &Body, params: &CorParams) -> (Self, CorStats) {
+        let n = body.vertex_count().min(body.weights.len());
+        let rows = UniqueRows::new(&body.weights, n);
+        let pairs = PairIndex::from_rows(&body.weights, &rows.representatives);
+        let buckets = Buckets::build(body, params, &pairs);
+        let inv_sigma2 = 1.0 / (params.sigma * params.sigma);
+        let solved: Vec<(Option<Point3<f64>>, u64)> = rows
+            .representatives
+            .par_iter()
+            .with_min_len(16)
+            .map(|&v| {
+                let (joints, weights) = body.weights.row_slices(v);
+                center_of_row(joints, weights, &pairs, &buckets, inv_sigma2)
+            })
+            .collect();
+        let mut centers = vec![None; body.vertex_count()];
+        for (v, slot) in rows.slot.iter().enumerate() {
+            if let Some(&(c, _)) = slot.and_then(|s| solved.get(s)) {
+                centers[v] = c;
+            }
+        }
+        let stats = CorStats {
+            vertices: body.vertex_count(),
+            blended_vertices: rows.slot.iter().flatten().count(),
+            unique_rows: rows.representatives.len(),
+            centers: centers.iter().flatten().count(),
+            subtriangles: buckets.subtriangles,
+            pairs: pairs.keys.len(),
+            bucket_entries: buckets.x.len(),
+            kernel_evaluations: solved.iter().map(|s| s.1).sum(),
+        };
+        (Self { centers }, stats)
     }
 }
 
-/// Skins with centers of rotation.
-pub fn skin(body: &Body, _centers: &CorCenters, mats: &[Matrix4<f64>]) -> Skinned {
-    super::lbs::skin(body, mats)
+/// The similarity `s(w_p, w_v)` of two sparse weight rows (`(joints, weights)`), Le & Hodgins
+/// 2016: `Σ_{j<k} w_pj w_pk w_vj w_vk exp(-(w_pj w_vk - w_pk w_vj)² / σ²)` over the joints common
+/// to both rows. Rows need not be sorted; a joint listed twice counts once (first entry).
+pub fn similarity(p: (&[u16], &[f64]), v: (&[u16], &[f64]), sigma: f64) -> f64 {
+    let inv_sigma2 = 1.0 / (sigma * sigma);
+    let common: Vec<(f64, f64)> =
+        p.0.iter()
+            .zip(p.1)
+            .enumerate()
+            .filter(|&(i, (j, _))| !p.0[..i].contains(j))
+            .filter_map(|(_, (j, &wp))| {
+                let k = v.0.iter().position(|x| x == j)?;
+                Some((wp, *v.1.get(k)?))
+            })
+            .collect();
+    let mut s = 0.0;
+    for (a, &(pj, vj)) in common.iter().enumerate() {
+        for &(pk, vk) in &common[a + 1..] {
+            let d = pj * vk - pk * vj;
+            s += pj * pk * vj * vk * (-d * d * inv_sigma2).exp();
+        }
+    }
+    s
+}
+
+/// Distinct multi-influence weight rows: `slot[v]` is the index of vertex `v`'s row in
+/// `representatives` (the first vertex carrying it), `None` for rows with fewer than two joints.
+struct UniqueRows {
+    slot: Vec<Option<usize>>,
+    representatives: Vec<usize>,
+}
+
+impl UniqueRows {
+    fn new(weights: &SkinWeights, n: usize) -> Self {
+        let mut seen: HashMap<(&[u16], Vec<u64>), usize> = HashMap::new();
+        let mut representatives = Vec::new();
+        let slot = (0..n)
+            .map(|v| {
+                let (joints, ws) = weights.row_slices(v);
+                if joints.len() < 2 {
+                    return None;
+                }
+                let key = (joints, ws.iter().map(|w| w.to_bits()).collect());
+                Some(*seen.entry(key).or_insert_with(|| {
+                    representatives.push(v);
+                    representatives.len() - 1
+                }))
+            })
+            .collect();
+        Self {
+            slot,
+            representatives,
+        }
+    }
+}
+
+/// Packs an ordered joint pair `j < k` into one key.
+fn pair_key(j: u16, k: u16) -> u32 {
+    (u32::from(j) << 16) | u32::from(k)
+}
+
+/// The joint pairs that occur in some vertex row, sorted; a pair's bucket is its rank.
+struct PairIndex {
+    keys: Vec<u32>,
+}
+
+impl PairIndex {
+    fn from_rows(weights: &SkinWeights, representatives: &[usize]) -> Self {
+        let mut keys = Vec::new();
+        for &v in representatives {
+            let (joints, _) = weights.row_slices(v);
+            for (a, &j) in joints.iter().enumerate() {
+                for &k in &joints[a + 1..] {
+                    keys.push(pair_key(j.min(k), j.max(k)));
+                }
+            }
+        }
+        keys.sort_unstable();
+        keys.dedup();
+        Self { keys }
+    }
+
+    fn find(&self, j: u16, k: u16) -> Option<usize> {
+        self.keys.binary_search(&pair_key(j.min(k), j.max(k))).ok()
+    }
+}
+
+/// The bind-pose data of one triangle: corner positions and the union of the corner rows,
+/// with each joint's weight at the three corners.
+struct TriangleData {
+    corners: [Point3<f64>; 3],
+    joints: Vec<u16>,
+    corner_weights: Vec<[f64; 3]>,
+}
+
+impl TriangleData {
+    /// Gathers triangle `tri`; `None` when an index is out of range.
+    fn gather(body: &Body, tri: &[u32; 3]) -> Option<Self> {
+        let mut corners = [Point3::origin(); 3];
+        let mut joints: Vec<u16> = Vec::with_capacity(12);
+        let mut corner_weights: Vec<[f64; 3]> = Vec::with_capacity(12);
+        for (c, &v) in tri.iter().enumerate() {
+            let v = v as usize;
+            corners[c] = *body.positions.get(v)?;
+            if v >= body.weights.len() {
+                return None;
+            }
+            for (j, w) in body.weights.row(v) {
+                let j = j as u16;
+                match joints.iter().position(|&x| x == j) {
+                    Some(i) => corner_weights[i][c] += w,
+                    None => {
+                        joints.push(j);
+                        let mut cw = [0.0; 3];
+                        cw[c] = w;
+                        corner_weights.push(cw);
+                    }
+                }
+            }
+        }
+        Some(Self {
+            corners,
+            joints,
+            corner_weights,
+        })
+    }
+
+    /// Largest L2 distance between the weight vectors of two corners.
+    fn max_edge_weight_distance(&self) -> f64 {
+        [(0, 1), (1, 2), (2, 0)]
+            .iter()
+            .map(|&(a, b)| {
+                let d2: f64 = self
+                    .corner_weights
+                    .iter()
+                    .map(|w| (w[a] - w[b]) * (w[a] - w[b]))
+                    .sum();
+                d2.sqrt()
+            })
+            .fold(0.0, f64::max)
+    }
+
+    /// Subdivision level: `n = ceil(max edge weight distance / ε)`, clamped to `[1, cap]`.
+    fn subdivision(&self, params: &CorParams) -> u32 {
+        let d = self.max_edge_weight_distance();
+        let n = (d / params.epsilon).ceil();
+        if n.is_finite() && n >= 1.0 {
+            (n as u32).clamp(1, params.max_subdivision.max(1))
+        } else {
+            1
+        }
+    }
+
+    fn area(&self) -> f64 {
+        let [a, b, c] = &self.corners;
+        0.5 * (b - a).cross(&(c - a)).norm()
+    }
+}
+
+/// Calls `f(area, centroid, barycentric centroid)` for the `n²` pieces of the uniform barycentric
+/// `n × n` subdivision of a triangle of area `area`. With linearly interpolated weights, the
+/// mean of a piece's corner weights is the weight at its centroid, so this is exact.
+fn for_each_piece(n: u32, area: f64, mut f: impl FnMut(f64, [f64; 3])) {
+    let nf = f64::from(n);
+    let piece = area / (nf * nf);
+    let bary = |i: u32, j: u32, off: f64| {
+        let b0 = (3.0 * f64::from(i) + off) / (3.0 * nf);
+        let b1 = (3.0 * f64::from(j) + off) / (3.0 * nf);
+        [b0, b1, 1.0 - b0 - b1]
+    };
+    for i in 0..n {
+        for j in 0..n - i {
+            f(piece, bary(i, j, 1.0));
+            if i + j + 2 <= n {
+                f(piece, bary(i, j, 2.0));
+            }
+        }
+    }
+}
+
+/// One bucket entry before packing: `(pair, w_tj, w_tk, w_tj w_tk A_t, w_tj w_tk A_t c_t)`.
+type RawEntry = (u32, f64, f64, f64, [f64; 3]);
+
+/// The subtriangles bucketed per joint pair, structure-of-arrays; bucket `b` is
+/// `offsets[b]..offsets[b + 1]`.
+struct Buckets {
+    offsets: Vec<usize>,
+    x: Vec<f64>,
+    y: Vec<f64>,
+    area: Vec<f64>,
+    moment: Vec<[f64; 3]>,
+    subtriangles: usize,
+}
+
+impl Buckets {
+    /// Subdivides every triangle (in parallel, chunk results kept in triangle order) and
+    /// counting-sorts the entries into their pair buckets.
+    fn build(body: &Body, params: &CorParams, pairs: &PairIndex) -> Self {
+        let chunks: Vec<(Vec<RawEntry>, usize)> = if pairs.keys.is_empty() {
+            Vec::new()
+        } else {
+            body.triangles
+                .par_chunks(512)
+                .map(|tris| {
+                    let mut out = Vec::new();
+                    let pieces = tris
+                        .iter()
+                        .map(|t| emit_triangle(body, t, params, pairs, &mut out))
+                        .sum();
+                    (out, pieces)
+                })
+                .collect()
+        };
+        let mut counts = vec![0usize; pairs.keys.len() + 1];
+        for e in chunks.iter().flat_map(|c| &c.0) {
+            counts[e.0 as usize + 1] += 1;
+        }
+        for b in 1..counts.len() {
+            counts[b] += counts[b - 1];
+        }
+        let total = counts.last().copied().unwrap_or(0);
+        let mut this = Self {
+            offsets: counts.clone(),
+            x: vec![0.0; total],
+            y: vec![0.0; total],
+            area: vec![0.0; total],
+            moment: vec![[0.0; 3]; total],
+            subtriangles: chunks.iter().map(|c| c.1).sum(),
+        };
+        let mut cursor = counts;
+        for &(b, x, y, a, m) in chunks.iter().flat_map(|c| &c.0) {
+            let at = cursor[b as usize];
+            cursor[b as usize] += 1;
+            (this.x[at], this.y[at], this.area[at], this.moment[at]) = (x, y, a, m);
+        }
+        this
+    }
+
+    fn range(&self, bucket: usize) -> std::ops::Range<usize> {
+        self.offsets[bucket]..self.offsets[bucket + 1]
+    }
+}
+
+/// Subdivides one triangle and appends an entry per (piece, pair present in some vertex row).
+/// Returns the number of pieces.
+fn emit_triangle(
+    body: &Body,
+    tri: &[u32; 3],
+    params: &CorParams,
+    pairs: &PairIndex,
+    out: &mut Vec<RawEntry>,
+) -> usize {
+    let Some(t) = TriangleData::gather(body, tri) else {
+        return 0;
+    };
+    let area = t.area();
+    let n = t.subdivision(params);
+    if !(area > 0.0 && area.is_finite()) || t.joints.len() < 2 {
+        return (n * n) as usize;
+    }
+    let local: Vec<(usize, usize, usize)> = local_pairs(&t, pairs);
+    if local.is_empty() {
+        return (n * n) as usize;
+    }
+    let mut w = vec![0.0; t.joints.len()];
+    for_each_piece(n, area, |a, b| {
+        for (wj, cw) in w.iter_mut().zip(&t.corner_weights) {
+            *wj = b[0] * cw[0] + b[1] * cw[1] + b[2] * cw[2];
+        }
+        let c =
+            t.corners[0].coords * b[0] + t.corners[1].coords * b[1] + t.corners[2].coords * b[2];
+        for &(bucket, lo, hi) in &local {
+            let (x, y) = (w[lo], w[hi]);
+            let f = x * y * a;
+            if f > 0.0 {
+                out.push((bucket as u32, x, y, f, [f * c.x, f * c.y, f * c.z]));
+            }
+        }
+    });
+    (n * n) as usize
+}
+
+/// The pairs of a triangle's joint union that have a bucket: `(bucket, index of the smaller
+/// joint, index of the larger joint)` into `t.joints`.
+fn local_pairs(t: &TriangleData, pairs: &PairIndex) -> Vec<(usize, usize, usize)> {
+    let mut local = Vec::new();
+    for a in 0..t.joints.len() {
+        for b in a + 1..t.joints.len() {
+            let (ja, jb) = (t.joints[a], t.joints[b]);
+            if let Some(bucket) = pairs.find(ja, jb) {
+                let (lo, hi) = if ja < jb { (a, b) } else { (b, a) };
+                local.push((bucket, lo, hi));
+            }
+        }
+    }
+    local
+}
+
+/// The center of one weight row: `Σ_pairs w_j w_k Σ_bucket e · (x y A c) / (same with x y A)`,
+/// plus the number of kernel evaluations. Pairs are visited in the row's order and entries in
+/// bucket order, so the sum order is fixed.
+fn center_of_row(
+    joints: &[u16],
+    weights: &[f64],
+    pairs: &PairIndex,
+    buckets: &Buckets,
+    inv_sigma2: f64,
+) -> (Option<Point3<f64>>, u64) {
+    let (mut num, mut den, mut evals) = (Vector3::zeros(), 0.0, 0u64);
+    for a in 0..joints.len() {
+        for b in a + 1..joints.len() {
+            let (wa, wb) = (weights[a], weights[b]);
+            let vw = wa * wb;
+            let Some(bucket) = pairs.find(joints[a], joints[b]).filter(|_| vw > 0.0) else {
+                continue;
+            };
+            // In the bucket, x is the weight of the smaller joint and y of the larger one.
+            let (vx, vy) = if joints[a] < joints[b] {
+                (wa, wb)
+            } else {
+                (wb, wa)
+            };
+            let range = buckets.range(bucket);
+            evals += range.len() as u64;
+            let (pn, pd) = bucket_sum(buckets, range, vx, vy, inv_sigma2);
+            num += pn * vw;
+            den += pd * vw;
+        }
+    }
+    let center = Point3::from(num / den);
+    let valid = den > 0.0 && center.coords.iter().all(|c| c.is_finite());
+    (valid.then_some(center), evals)
+}
+
+/// `Σ_t exp(-(x_t v_y - y_t v_x)² / σ²) · (x_t y_t A_t c_t, x_t y_t A_t)` over one bucket range.
+fn bucket_sum(
+    buckets: &Buckets,
+    range: std::ops::Range<usize>,
+    vx: f64,
+    vy: f64,
+    inv_sigma2: f64,
+) -> (Vector3<f64>, f64) {
+    let xs = &buckets.x[range.clone()];
+    let ys = &buckets.y[range.clone()];
+    let areas = &buckets.area[range.clone()];
+    let moments = &buckets.moment[range];
+    let (mut n, mut d) = ([0.0f64; 3], 0.0f64);
+    for (((&x, &y), &a), m) in xs.iter().zip(ys).zip(areas).zip(moments) {
+        let delta = x * vy - y * vx;
+        let e = (-delta * delta * inv_sigma2).exp();
+        d += e * a;
+        n[0] += e * m[0];
+        n[1] += e * m[1];
+        n[2] += e * m[2];
+    }
+    (Vector3::from(n), d)
+}
+
+/// A joint's rotation for the quaternion blend.
+fn joint_rotations(mats: &[Matrix4<f64>]) -> Vec<Quaternion<f64>> {
+    mats.iter()
+        .map(|m| {
+            let a: Matrix3<f64> = m.fixed_view::<3, 3>(0, 0).into_owned();
+            polar(&a).0.into_inner()
+        })
+        .collect()
+}
+
+/// The normalized, sign-aligned quaternion blend `Σ_s w_s q_s` of one vertex (signs aligned to
+/// the heaviest influence), as a rotation; identity when the blend vanishes.
+fn blended_rotation(
+    joints: &[u16],
+    weights: &[f64],
+    rots: &[Quaternion<f64>],
+) -> UnitQuaternion<f64> {
+    let pivot = joints
+        .iter()
+        .zip(weights)
+        .max_by(|a, b| a.1.total_cmp(b.1))
+        .and_then(|(&j, _)| rots.get(j as usize));
+    let Some(&q0) = pivot else {
+        return UnitQuaternion::identity();
+    };
+    let mut q = Quaternion::new(0.0, 0.0, 0.0, 0.0);
+    for (&j, &w) in joints.iter().zip(weights) {
+        if let Some(r) = rots.get(j as usize) {
+            q += r * if r.dot(&q0) < 0.0 { -w } else { w };
+        }
+    }
+    UnitQuaternion::try_new(q, 1e-12).unwrap_or_else(UnitQuaternion::identity)
+}
+
+/// Skins one vertex with its center: `p' = (Σ w_s M_s) p* + R (p - p*)`, `n' = R n`.
+fn skin_vertex_cor(
+    joints: &[u16],
+    weights: &[f64],
+    p: &Point3<f64>,
+    n: &Vector3<f64>,
+    center: &Point3<f64>,
+    mats: &[Matrix4<f64>],
+    rots: &[Quaternion<f64>],
+) -> (Point3<f64>, Vector3<f64>) {
+    let mut m = Matrix4::zeros();
+    for (&j, &w) in joints.iter().zip(weights) {
+        if let Some(mj) = mats.get(j as usize) {
+            m += mj * w;
+        }
+    }
+    let r = blended_rotation(joints, weights, rots);
+    let p2 = m.transform_point(center) + r * (p - center);
+    (p2, unit_or_zero(r * n))
+}
+
+/// Center-of-rotation skinning of a whole body (Le & Hodgins 2016): vertices with a center use
+/// `p' = Σ_s w_s M_s p* + R (p - p*)`, the others plain LBS. A missing center (e.g. `centers`
+/// computed for another body) also falls back to LBS.
+pub fn skin(body: &Body, centers: &CorCenters, mats: &[Matrix4<f64>]) -> Skinned {
+    let rots = joint_rotations(mats);
+    let (positions, normals) = (0..body.vertex_count())
+        .into_par_iter()
+        .with_min_len(1024)
+        .map(|v| {
+            let p = &body.positions[v];
+            let n = body.normals.get(v).copied().unwrap_or_else(Vector3::zeros);
+            match centers.centers.get(v).copied().flatten() {
+                Some(c) if v < body.weights.len() => {
+                    let (joints, weights) = body.weights.row_slices(v);
+                    skin_vertex_cor(joints, weights, p, &n, &c, mats, &rots)
+                }
+                _ => lbs::skin_vertex(&body.weights, v, p, &n, mats),
+            }
+        })
+        .unzip();
+    Skinned { positions, normals }
 }

@@ -112,4 +112,3 @@ pub fn skin(body: &Body, mats: &[Matrix4<f64>]) -> Skinned {
         .unzip();
     Skinned { positions, normals }
 }
-

@@ -1,0 +1,144 @@
+//! A baked glb: one file that plays a posed sequence in any glTF viewer.
+//!
+//! Each body becomes an unskinned mesh whose base positions are the first frame; every later
+//! frame is a morph target holding its displacement from the base, and a `weights` animation
+//! switches from one target to the next (LINEAR, so a viewer interpolates between frames).
+
+use super::glb_builder::{GlbBuilder, Target};
+use crate::frames::Frame;
+use crate::rig::Rig;
+use gltf_json as json;
+use json::validation::Checked::Valid;
+use std::collections::BTreeMap;
+
+/// Builds the glb bytes of a sequence of frames (at least one).
+pub fn bake(rig: &Rig, frames: &[Frame], name: &str) -> Result<Vec<u8>, json::Error> {
+    let mut b = GlbBuilder::new();
+    let mut nodes = Vec::new();
+    for (bi, body) in rig.bodies.iter().enumerate() {
+        let mut primitives = Vec::new();
+        for prim in &body.primitives {
+            primitives.push(bake_primitive(&mut b, frames, bi, body, prim));
+        }
+        let targets = frames.len().saturating_sub(1);
+        let mesh = b.root.push(json::Mesh {
+            extensions: None,
+            extras: Default::default(),
+            name: Some(body.name.clone()),
+            primitives,
+            weights: (targets > 0).then(|| vec![0.0; targets]),
+        });
+        nodes.push(b.root.push(json::Node {
+            mesh: Some(mesh),
+            name: Some(body.name.clone()),
+            ..Default::default()
+        }));
+    }
+    if frames.len() > 1 {
+        push_weights_animation(&mut b, frames, &nodes, name);
+    }
+    let scene = b.root.push(json::Scene {
+        extensions: None,
+        extras: Default::default(),
+        name: Some(name.to_string()),
+        nodes: nodes.clone(),
+    });
+    b.root.scene = Some(scene);
+    b.finish()
+}
+
+fn bake_primitive(
+    b: &mut GlbBuilder,
+    frames: &[Frame],
+    body: usize,
+    source: &crate::rig::Body,
+    prim: &crate::rig::PrimitiveRange,
+) -> json::mesh::Primitive {
+    let range = prim.first_vertex..prim.first_vertex + prim.vertex_count;
+    let base: Vec<[f32; 3]> = frames[0].bodies[body].positions[range.clone()]
+        .iter()
+        .map(|p| [p.x as f32, p.y as f32, p.z as f32])
+        .collect();
+    let position = b.push_f32(&base, Target::Vertex, true);
+    let targets: Vec<json::mesh::MorphTarget> = frames[1..]
+        .iter()
+        .map(|f| {
+            let delta: Vec<[f32; 3]> = f.bodies[body].positions[range.clone()]
+                .iter()
+                .zip(&base)
+                .map(|(p, q)| [p.x as f32 - q[0], p.y as f32 - q[1], p.z as f32 - q[2]])
+                .collect();
+            json::mesh::MorphTarget {
+                positions: Some(b.push_f32(&delta, Target::Vertex, true)),
+                normals: None,
+                tangents: None,
+            }
+        })
+        .collect();
+    // Indices local to the primitive.
+    let first = prim.first_vertex as u32;
+    let tris: Vec<[u32; 3]> = source.triangles
+        [prim.first_triangle..prim.first_triangle + prim.triangle_count]
+        .iter()
+        .map(|t| t.map(|i| i - first))
+        .collect();
+    let indices = b.push_indices(&tris);
+    let mut attributes = BTreeMap::new();
+    attributes.insert(Valid(json::mesh::Semantic::Positions), position);
+    json::mesh::Primitive {
+        attributes,
+        extensions: None,
+        extras: Default::default(),
+        indices: Some(indices),
+        material: None,
+        mode: Valid(json::mesh::Mode::Triangles),
+        targets: (!targets.is_empty()).then_some(targets),
+    }
+}
+
+fn push_weights_animation(
+    b: &mut GlbBuilder,
+    frames: &[Frame],
+    nodes: &[json::Index<json::Node>],
+    name: &str,
+) {
+    let t0 = frames[0].time;
+    let times: Vec<[f32; 1]> = frames.iter().map(|f| [(f.time - t0) as f32]).collect();
+    let targets = frames.len() - 1;
+    let mut weights: Vec<[f32; 1]> = Vec::with_capacity(frames.len() * targets);
+    for k in 0..frames.len() {
+        for j in 0..targets {
+            weights.push([if k >= 1 && j == k - 1 { 1.0 } else { 0.0 }]);
+        }
+    }
+    let input = b.push_f32(&times, Target::None, true);
+    let output = b.push_f32(&weights, Target::None, false);
+    let sampler = json::animation::Sampler {
+        extensions: None,
+        extras: Default::default(),
+        input,
+        interpolation: Valid(json::animation::Interpolation::Linear),
+        output,
+    };
+    let channels = nodes
+        .iter()
+        .map(|&node| json::animation::Channel {
+            sampler: json::Index::new(0),
+            target: json::animation::Target {
+                extensions: None,
+                extras: Default::default(),
+                node,
+                path: Valid(json::animation::Property::MorphTargetWeights),
+            },
+            extensions: None,
+            extras: Default::default(),
+        })
+        .collect();
+    b.root.push(json::Animation {
+        extensions: None,
+        extras: Default::default(),
+        channels,
+        name: Some(name.to_string()),
+        samplers: vec![sampler],
+    });
+}

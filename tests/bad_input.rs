@@ -1,0 +1,419 @@
+//! Malformed and hostile inputs: every one must give a typed error naming the file and the
+//! element, or a documented fallback with a warning — never a panic.
+
+use base64::Engine;
+use contact_skin::rig::{self, RigError};
+use serde_json::{json, Value};
+use std::path::Path;
+
+/// Binary layout of the minimal valid rig: a skinned triangle with two joints and an animation.
+struct Layout {
+    bytes: Vec<u8>,
+}
+
+fn f32s(out: &mut Vec<u8>, v: &[f32]) {
+    out.extend(v.iter().flat_map(|x| x.to_le_bytes()));
+}
+
+impl Layout {
+    /// positions @0 (36 B), normals @36 (36), joints u16 @72 (24), weights @96 (48),
+    /// indices u16 @144 (6, padded to 8), ibm @152 (128), times @280 (8), rotations @288 (32).
+    fn new(weights: [[f32; 4]; 3], positions: [[f32; 3]; 3]) -> Self {
+        let mut b = Vec::new();
+        f32s(&mut b, &positions.concat());
+        f32s(&mut b, &[0., 0., 1., 0., 0., 1., 0., 0., 1.]);
+        for j in [[0u16, 1, 0, 0], [0, 1, 0, 0], [1, 0, 0, 0]] {
+            b.extend(j.iter().flat_map(|x| x.to_le_bytes()));
+        }
+        f32s(&mut b, &weights.concat());
+        b.extend([0u16, 1, 2, 0].iter().flat_map(|x| x.to_le_bytes()));
+        let id = [
+            1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1.,
+        ];
+        f32s(&mut b, &id);
+        f32s(&mut b, &id);
+        f32s(&mut b, &[0.0, 1.0]);
+        f32s(&mut b, &[0., 0., 0., 1., 0., 0., 0.7071068, 0.7071068]);
+        Self { bytes: b }
+    }
+
+    fn valid() -> Self {
+        Self::new(
+            [[0.5, 0.5, 0., 0.], [1., 0., 0., 0.], [1., 0., 0., 0.]],
+            [[0., 0., 0.], [1., 0., 0.], [0., 1., 0.]],
+        )
+    }
+}
+
+fn view(offset: usize, len: usize) -> Value {
+    json!({"buffer": 0, "byteOffset": offset, "byteLength": len})
+}
+
+fn acc(view: usize, ctype: u32, count: usize, ty: &str) -> Value {
+    json!({"bufferView": view, "componentType": ctype, "count": count, "type": ty})
+}
+
+/// The glTF JSON of the minimal rig, with the buffer embedded as a data URI.
+fn doc(layout: &Layout) -> Value {
+    let uri = format!(
+        "data:application/octet-stream;base64,{}",
+        base64::engine::general_purpose::STANDARD.encode(&layout.bytes)
+    );
+    let mut pos = acc(0, 5126, 3, "VEC3");
+    pos["min"] = json!([0, 0, 0]);
+    pos["max"] = json!([1, 1, 0]);
+    let mut times = acc(7, 5126, 2, "SCALAR");
+    times["min"] = json!([0]);
+    times["max"] = json!([1]);
+    json!({
+        "asset": {"version": "2.0"},
+        "scene": 0,
+        "scenes": [{"nodes": [0, 1]}],
+        "nodes": [
+            {"mesh": 0, "skin": 0},
+            {"children": [2], "name": "root"},
+            {"name": "tip", "translation": [0, 1, 0]}
+        ],
+        "skins": [{"joints": [1, 2], "inverseBindMatrices": 5}],
+        "meshes": [{"primitives": [{
+            "attributes": {"POSITION": 0, "NORMAL": 1, "JOINTS_0": 2, "WEIGHTS_0": 3},
+            "indices": 4
+        }]}],
+        "animations": [{"channels": [{"sampler": 0, "target": {"node": 2, "path": "rotation"}}],
+                        "samplers": [{"input": 6, "output": 7}]}],
+        "accessors": [pos, acc(1, 5126, 3, "VEC3"), acc(2, 5123, 3, "VEC4"), acc(3, 5126, 3, "VEC4"),
+                      acc(4, 5123, 3, "SCALAR"), acc(5, 5126, 2, "MAT4"), times, acc(8, 5126, 2, "VEC4")],
+        "bufferViews": [view(0, 36), view(36, 36), view(72, 24), view(96, 48), view(144, 6),
+                        view(152, 128), view(280, 8), view(288, 32)],
+        "buffers": [{"byteLength": layout.bytes.len(), "uri": uri}]
+    })
+}
+
+fn load_json(v: &Value) -> Result<rig::Rig, RigError> {
+    let text = serde_json::to_vec(v).expect("serializable");
+    rig::load_from_bytes(Path::new("test.gltf"), &text)
+}
+
+fn fixed_doc() -> Value {
+    let mut d = doc(&Layout::valid());
+    // accessors[6] holds the times: the sampler must read input 6, output 7.
+    d["animations"][0]["samplers"][0] = json!({"input": 6, "output": 7});
+    d["accessors"][6] = {
+        let mut t = acc(6, 5126, 2, "SCALAR");
+        t["min"] = json!([0]);
+        t["max"] = json!([1]);
+        t
+    };
+    d["accessors"][7] = acc(7, 5126, 2, "VEC4");
+    d
+}
+
+fn expect_err(v: &Value, needle: &str) -> RigError {
+    match load_json(v) {
+        Ok(_) => panic!("expected an error mentioning '{needle}'"),
+        Err(e) => {
+            let msg = e.to_string();
+            assert!(
+                msg.contains(needle),
+                "error '{msg}' should mention '{needle}'"
+            );
+            assert!(
+                msg.starts_with("test.gltf"),
+                "error '{msg}' should name the file"
+            );
+            e
+        }
+    }
+}
+
+#[test]
+fn the_minimal_rig_is_valid_and_poses() {
+    let rig = load_json(&fixed_doc()).expect("valid rig");
+    assert_eq!(rig.bodies.len(), 1);
+    assert_eq!(rig.bodies[0].vertex_count(), 3);
+    assert_eq!(rig.animations.len(), 1);
+    assert!(rig.warnings.is_empty(), "{:?}", rig.warnings);
+    // At t = 1 the tip joint turned 90° about z; vertex 0 (half on it) moves, vertex 1 does not.
+    let pose = rig.pose_at(Some(0), 1.0);
+    let mats = pose.skin_matrices(&rig.skins[0]);
+    let s = contact_skin::skinning::lbs::skin(&rig.bodies[0], &mats);
+    assert!((s.positions[1] - rig.bodies[0].positions[1]).norm() < 1e-12);
+    assert!((s.positions[0] - rig.bodies[0].positions[0]).norm() > 0.1);
+}
+
+#[test]
+fn truncated_and_garbage_files_are_format_errors() {
+    let text = serde_json::to_vec(&fixed_doc()).expect("json");
+    for cut in [0, 1, 10, text.len() / 2, text.len() - 1] {
+        let r = rig::load_from_bytes(Path::new("t.gltf"), &text[..cut]);
+        assert!(matches!(r, Err(RigError::Format { .. })), "cut at {cut}");
+    }
+    let glb_header = b"glTF\x02\x00\x00\x00\xff\xff\xff\x7f\x10\x00\x00\x00JSON{}";
+    let r = rig::load_from_bytes(Path::new("t.glb"), glb_header);
+    assert!(matches!(r, Err(RigError::Format { .. })));
+}
+
+#[test]
+fn accessor_out_of_bounds_is_an_accessor_error() {
+    let mut d = fixed_doc();
+    d["accessors"][0]["count"] = json!(4);
+    match expect_err(&d, "accessors[0]") {
+        RigError::Accessor { role, .. } => assert!(role.contains("POSITION")),
+        e => panic!("unexpected {e:?}"),
+    }
+    let mut d = fixed_doc();
+    d["accessors"][0]["byteOffset"] = json!(4);
+    expect_err(&d, "do not fit");
+}
+
+#[test]
+fn buffer_view_past_the_buffer_is_an_error() {
+    let mut d = fixed_doc();
+    d["bufferViews"][5]["byteLength"] = json!(100_000);
+    expect_err(&d, "runs past the end");
+}
+
+#[test]
+fn absurd_counts_do_not_allocate() {
+    let mut d = fixed_doc();
+    d["accessors"][3]["count"] = json!(4_000_000_000u64);
+    expect_err(&d, "accessors[3]");
+    let mut d = fixed_doc();
+    d["accessors"][1] = json!({"componentType": 5126, "count": 3_000_000_000u64, "type": "VEC3",
+        "sparse": {"count": 1, "indices": {"bufferView": 4, "componentType": 5123},
+                   "values": {"bufferView": 1}}});
+    expect_err(&d, "exceeds the limit");
+}
+
+#[test]
+fn stride_smaller_than_the_element_is_an_error() {
+    let mut d = fixed_doc();
+    d["bufferViews"][1]["byteStride"] = json!(8);
+    let r = load_json(&d);
+    assert!(r.is_err(), "stride 8 for VEC3 floats must be refused");
+}
+
+#[test]
+fn joint_index_beyond_the_skin_is_an_error() {
+    let mut l = Layout::valid();
+    l.bytes[72..74].copy_from_slice(&7u16.to_le_bytes()); // vertex 0, first influence, weight 0.5
+    let mut d = fixed_doc();
+    d["buffers"][0] = doc(&l)["buffers"][0].clone();
+    expect_err(&d, "uses joint 7");
+}
+
+#[test]
+fn unused_joint_index_beyond_the_skin_is_ignored() {
+    let mut l = Layout::valid();
+    l.bytes[76..78].copy_from_slice(&9u16.to_le_bytes()); // vertex 0, third influence, weight 0
+    let mut d = fixed_doc();
+    d["buffers"][0] = doc(&l)["buffers"][0].clone();
+    load_json(&d).expect("a zero-weight influence may name any joint");
+}
+
+fn with_weights(w: [[f32; 4]; 3]) -> Value {
+    let l = Layout::new(w, [[0., 0., 0.], [1., 0., 0.], [0., 1., 0.]]);
+    let mut d = fixed_doc();
+    d["buffers"][0] = doc(&l)["buffers"][0].clone();
+    d
+}
+
+#[test]
+fn nan_and_negative_weights_fall_back_with_a_warning() {
+    let d = with_weights([
+        [f32::NAN, 1.0, 0., 0.],
+        [1., -0.5, 0., 0.],
+        [1., 0., 0., 0.],
+    ]);
+    let rig = load_json(&d).expect("documented fallback");
+    assert!(
+        rig.warnings.iter().any(|w| w.contains("NaN")),
+        "{:?}",
+        rig.warnings
+    );
+    let w = &rig.bodies[0].weights;
+    assert_eq!(w.row(0).collect::<Vec<_>>(), vec![(1, 1.0)]);
+    assert_eq!(w.row(1).collect::<Vec<_>>(), vec![(0, 1.0)]);
+}
+
+#[test]
+fn all_zero_weights_bind_to_the_first_joint_with_a_warning() {
+    let d = with_weights([[0.; 4], [0.2, 0.2, 0., 0.], [1., 0., 0., 0.]]);
+    let rig = load_json(&d).expect("documented fallback");
+    assert!(rig.warnings.iter().any(|w| w.contains("no usable weight")));
+    assert!(rig.warnings.iter().any(|w| w.contains("renormalized")));
+    let w = &rig.bodies[0].weights;
+    assert_eq!(w.row(0).collect::<Vec<_>>(), vec![(0, 1.0)]);
+    let sum: f64 = w.row(1).map(|(_, x)| x).sum();
+    assert!((sum - 1.0).abs() < 1e-12);
+}
+
+#[test]
+fn nan_position_is_an_error() {
+    let l = Layout::new(
+        [[1., 0., 0., 0.]; 3],
+        [[f32::NAN, 0., 0.], [1., 0., 0.], [0., 1., 0.]],
+    );
+    let mut d = fixed_doc();
+    d["buffers"][0] = doc(&l)["buffers"][0].clone();
+    expect_err(&d, "non-finite");
+}
+
+#[test]
+fn missing_weights_are_an_error() {
+    let mut d = fixed_doc();
+    let attrs = d["meshes"][0]["primitives"][0]["attributes"]
+        .as_object_mut()
+        .expect("object");
+    attrs.remove("WEIGHTS_0");
+    attrs.remove("JOINTS_0");
+    expect_err(&d, "without JOINTS_0");
+}
+
+#[test]
+fn index_beyond_the_vertices_is_an_error() {
+    let mut l = Layout::valid();
+    l.bytes[146..148].copy_from_slice(&3u16.to_le_bytes());
+    let mut d = fixed_doc();
+    d["buffers"][0] = doc(&l)["buffers"][0].clone();
+    expect_err(&d, "must be below 3");
+}
+
+#[test]
+fn node_cycles_and_double_parents_are_errors() {
+    let mut d = fixed_doc();
+    d["nodes"][2]["children"] = json!([1]);
+    assert!(load_json(&d).is_err(), "a cycle must be refused");
+    let mut d = fixed_doc();
+    d["nodes"][0]["children"] = json!([2]);
+    expect_err(&d, "two parents");
+}
+
+#[test]
+fn decreasing_key_times_are_an_error() {
+    let mut l = Layout::valid();
+    l.bytes[280..284].copy_from_slice(&2.0f32.to_le_bytes());
+    let mut d = fixed_doc();
+    d["buffers"][0] = doc(&l)["buffers"][0].clone();
+    expect_err(&d, "strictly increasing");
+}
+
+#[test]
+fn zero_count_accessor_does_not_panic() {
+    let mut d = fixed_doc();
+    d["accessors"][7]["count"] = json!(0);
+    d["accessors"][6]["count"] = json!(0);
+    assert!(
+        load_json(&d).is_err(),
+        "an animation with no key is refused"
+    );
+}
+
+#[test]
+fn buffer_uris_cannot_leave_the_folder() {
+    let dir = std::env::temp_dir().join(format!("cs-uri-{}", std::process::id()));
+    let inner = dir.join("rig");
+    std::fs::create_dir_all(&inner).expect("temp dir");
+    let l = Layout::valid();
+    std::fs::write(dir.join("secret.bin"), &l.bytes).expect("write");
+    std::fs::write(inner.join("ok.bin"), &l.bytes).expect("write");
+    let write_rig = |uri: &str| {
+        let mut d = fixed_doc();
+        d["buffers"][0]["uri"] = json!(uri);
+        let p = inner.join("rig.gltf");
+        std::fs::write(&p, serde_json::to_vec(&d).expect("json")).expect("write");
+        rig::load(&p)
+    };
+    write_rig("ok.bin").expect("a sibling buffer is fine");
+    write_rig("./ok.bin").expect("./ is fine");
+    for bad in [
+        "../secret.bin",
+        "%2e%2e/secret.bin",
+        "sub/../../secret.bin",
+        "/etc/passwd",
+        "file:///etc/passwd",
+        "http://example.com/x.bin",
+        "C:/x.bin",
+        "..\\secret.bin",
+    ] {
+        match write_rig(bad) {
+            Err(RigError::Buffer { message, .. }) => {
+                assert!(
+                    message.contains(bad) || message.contains("URI"),
+                    "{message}"
+                )
+            }
+            other => panic!("{bad}: expected a buffer error, got {other:?}"),
+        }
+    }
+    #[cfg(unix)]
+    {
+        let link = inner.join("link.bin");
+        let _ = std::fs::remove_file(&link);
+        std::os::unix::fs::symlink(dir.join("secret.bin"), &link).expect("symlink");
+        assert!(matches!(
+            write_rig("link.bin"),
+            Err(RigError::Buffer { .. })
+        ));
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn missing_file_is_an_io_error() {
+    let r = rig::load(Path::new("/nonexistent/nowhere.glb"));
+    assert!(matches!(r, Err(RigError::Io { .. })));
+}
+
+/// Deterministic byte mutations of valid GLBs (half of them inside the JSON chunk, where the
+/// structure lives): whatever happens, no panic and no non-finite position.
+#[test]
+fn random_corruptions_never_panic() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/gltf-samples");
+    let mut state: u64 = 0x9E37_79B9_7F4A_7C15;
+    let mut next = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        state
+    };
+    for name in [
+        "RiggedSimple/RiggedSimple.glb",
+        "RiggedFigure/RiggedFigure.glb",
+        "Fox/Fox.glb",
+    ] {
+        let base = std::fs::read(root.join(name)).expect("the shared samples must be present");
+        let json_len = u32::from_le_bytes([base[12], base[13], base[14], base[15]]) as usize + 20;
+        let (mut ok, mut err) = (0, 0);
+        for _ in 0..4000 {
+            let mut bytes = base.clone();
+            let span = if next() % 2 == 0 {
+                json_len.min(bytes.len())
+            } else {
+                bytes.len()
+            };
+            for _ in 0..1 + next() % 4 {
+                let at = (next() as usize) % span;
+                bytes[at] = (next() & 0xff) as u8;
+            }
+            if next() % 8 == 0 {
+                let keep = (next() as usize) % bytes.len();
+                bytes.truncate(keep);
+            }
+            match rig::load_from_bytes(Path::new("fuzz.glb"), &bytes) {
+                Ok(r) => {
+                    ok += 1;
+                    for b in &r.bodies {
+                        assert!(b
+                            .positions
+                            .iter()
+                            .all(|p| p.coords.iter().all(|x| x.is_finite())));
+                    }
+                }
+                Err(_) => err += 1,
+            }
+        }
+        println!("{name}: {ok} corruptions loaded, {err} refused");
+        assert!(err > 0);
+    }
+}
