@@ -33,7 +33,8 @@ impl Layout {
         f32s(&mut b, &id);
         f32s(&mut b, &id);
         f32s(&mut b, &[0.0, 1.0]);
-        f32s(&mut b, &[0., 0., 0., 1., 0., 0., 0.7071068, 0.7071068]);
+        let h = std::f32::consts::FRAC_1_SQRT_2;
+        f32s(&mut b, &[0., 0., 0., 1., 0., 0., h, h]);
         Self { bytes: b }
     }
 

@@ -37,7 +37,7 @@ struct GenerateArgs {
     #[arg(long, short, default_value = "rigs")]
     out: PathBuf,
     /// Tessellation resolution (see rigs/README.md for the mapping).
-    #[arg(long, short, default_value_t = 4)]
+    #[arg(long, short, default_value_t = contact_skin::scenes::DEFAULT_RESOLUTION)]
     resolution: u32,
     /// Only these scenes (default: all). Names: bending_capsule, finger, mouth, capsule_pair,
     /// fingertips_ball, sphere_plane.
@@ -80,5 +80,19 @@ pub fn run() -> i32 {
 pub type CliResult = Result<(), Box<dyn std::error::Error + Send + Sync>>;
 
 fn generate(a: &GenerateArgs) -> CliResult {
-    Err(format!("generator not available yet ({:?})", a).into())
+    use contact_skin::scenes::{self, Scene};
+    let list: Vec<Scene> = if a.scenes.is_empty() {
+        Scene::ALL.to_vec()
+    } else {
+        a.scenes
+            .iter()
+            .map(|n| Scene::from_name(n).ok_or_else(|| format!("unknown scene '{n}'")))
+            .collect::<Result<_, _>>()?
+    };
+    std::fs::create_dir_all(&a.out)?;
+    for s in list {
+        let path = scenes::write(s, a.resolution, &a.out)?;
+        println!("wrote {} ({})", path.display(), s.description());
+    }
+    Ok(())
 }

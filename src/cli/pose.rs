@@ -203,12 +203,14 @@ fn write_obj_frames(
     header: &str,
     pb: &ProgressBar,
 ) -> Result<Written, Box<dyn std::error::Error + Send + Sync>> {
+    for i in 0..times.len() {
+        guard_input(&a.rig, &a.out.join(obj::frame_file_name(i)))?;
+    }
     let results: Vec<(PathBuf, f64)> = times
         .par_iter()
         .enumerate()
         .map(|(i, &t)| {
             let path = a.out.join(obj::frame_file_name(i));
-            guard_input(&a.rig, &path)?;
             let t0 = Instant::now();
             let frame = frames::evaluate(rig, pre, animation, i, t);
             let ms = t0.elapsed().as_secs_f64() * 1e3;

@@ -208,3 +208,86 @@ pub fn signed_volume(positions: &[Point3<f64>], triangles: &[[u32; 3]]) -> f64 {
         .sum::<f64>()
         / 6.0
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A unit cube with 4 split vertices per face (24 file vertices), outward CCW.
+    fn split_cube() -> (Vec<Point3<f64>>, Vec<[u32; 3]>) {
+        let faces: [[[f64; 3]; 4]; 6] = [
+            [[0., 0., 0.], [0., 1., 0.], [1., 1., 0.], [1., 0., 0.]],
+            [[0., 0., 1.], [1., 0., 1.], [1., 1., 1.], [0., 1., 1.]],
+            [[0., 0., 0.], [1., 0., 0.], [1., 0., 1.], [0., 0., 1.]],
+            [[0., 1., 0.], [0., 1., 1.], [1., 1., 1.], [1., 1., 0.]],
+            [[0., 0., 0.], [0., 0., 1.], [0., 1., 1.], [0., 1., 0.]],
+            [[1., 0., 0.], [1., 1., 0.], [1., 1., 1.], [1., 0., 1.]],
+        ];
+        let mut pos = Vec::new();
+        let mut tris = Vec::new();
+        for quad in faces {
+            let b = pos.len() as u32;
+            pos.extend(quad.iter().map(|c| Point3::new(c[0], c[1], c[2])));
+            tris.push([b, b + 1, b + 2]);
+            tris.push([b, b + 2, b + 3]);
+        }
+        (pos, tris)
+    }
+
+    #[test]
+    fn split_cube_welds_to_a_closed_manifold() {
+        let (pos, tris) = split_cube();
+        let w = WeldedMesh::weld(&pos, &tris);
+        assert_eq!(w.vertex_count(), 8);
+        assert_eq!(w.seams_welded(), 16);
+        assert!(w.report.is_closed_manifold(), "{:?}", w.report);
+        let welded_pos = w.gather(&pos);
+        assert!((signed_volume(&welded_pos, &w.triangles) - 1.0).abs() < 1e-12);
+        // Scatter writes every split copy.
+        let ids: Vec<u32> = (0..8).collect();
+        let back = w.scatter(&ids);
+        for (f, &wv) in back.iter().enumerate() {
+            assert_eq!(pos[f], welded_pos[wv as usize]);
+        }
+    }
+
+    #[test]
+    fn near_coincident_copies_weld_within_tolerance_only() {
+        let (mut pos, tris) = split_cube();
+        pos[5].x += 1e-9; // below 1e-6 of the diagonal: welded
+        assert_eq!(WeldedMesh::weld(&pos, &tris).vertex_count(), 8);
+        pos[5].x += 1e-3; // far above: a separate vertex, leaving open edges
+        let w = WeldedMesh::weld(&pos, &tris);
+        assert_eq!(w.vertex_count(), 9);
+        assert!(w.report.boundary_edges > 0);
+    }
+
+    #[test]
+    fn defects_are_reported_not_fatal() {
+        let (pos, mut tris) = split_cube();
+        let removed = tris.pop().expect("face");
+        let w = WeldedMesh::weld(&pos, &tris);
+        assert_eq!(w.report.boundary_edges, 3);
+        tris.push(removed);
+        tris.push(removed);
+        let w = WeldedMesh::weld(&pos, &tris);
+        assert_eq!(w.report.duplicate_faces, 1);
+        assert_eq!(w.report.non_manifold_edges, 3);
+        tris.pop();
+        tris[0].swap(1, 2);
+        let w = WeldedMesh::weld(&pos, &tris);
+        assert_eq!(w.report.inconsistent_edges, 3);
+        tris[0] = [0, 0, 1];
+        let w = WeldedMesh::weld(&pos, &tris);
+        assert_eq!(w.report.degenerate_faces, 1);
+    }
+
+    #[test]
+    fn empty_and_isolated_inputs_are_fine() {
+        let w = WeldedMesh::weld(&[], &[]);
+        assert_eq!(w.vertex_count(), 0);
+        let pos = vec![Point3::origin(), Point3::new(1.0, 0.0, 0.0)];
+        let w = WeldedMesh::weld(&pos, &[]);
+        assert_eq!(w.report.isolated_vertices, 2);
+    }
+}

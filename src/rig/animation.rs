@@ -188,7 +188,8 @@ impl Channel {
 }
 
 /// Spherical linear interpolation of `[x, y, z, w]` quaternions along the shorter arc
-/// (glTF 2.0 Appendix C); falls back to normalized linear interpolation for nearly equal inputs.
+/// (glTF 2.0 Appendix C); falls back to normalized linear interpolation only for keys within
+/// ~1e-6 rad, where both agree to rounding.
 pub fn slerp(a: [f64; 4], b: [f64; 4], s: f64) -> [f64; 4] {
     let qa = unit_quaternion(a).unwrap_or_else(UnitQuaternion::identity);
     let qb = unit_quaternion(b).unwrap_or_else(UnitQuaternion::identity);
@@ -199,7 +200,7 @@ pub fn slerp(a: [f64; 4], b: [f64; 4], s: f64) -> [f64; 4] {
         d = -d;
     }
     let qa = qa.into_inner();
-    let q = if d > 0.9995 {
+    let q = if d > 1.0 - 1e-12 {
         qa * (1.0 - s) + qb * s
     } else {
         let theta0 = d.clamp(-1.0, 1.0).acos();

@@ -1,1 +1,252 @@
-//! scenes
+//! The procedural test scenes of `rigs/` (see `MEASURING.md`, "Scenes"): skinned, animated
+//! glTF 2.0 binaries reproducing the set-ups of Brunel et al. 2021 (Figs. 1d, 5, 6, 13, 14,
+//! 15, 17).
+//!
+//! Every body is a closed, outward-oriented 2-manifold (after welding coincident positions)
+//! on its own skinned mesh node, with POSITION, NORMAL, JOINTS_0, WEIGHTS_0 and `u32` indices;
+//! rigid bodies are skinned to a single joint. Every scene has one LINEAR animation that starts
+//! at the rest pose and drives its parts well into interpenetration (plain skinning does not
+//! resolve contacts: that is what the scenes are for); the bending capsule also has "twist".
+//!
+//! # Resolution
+//! All bodies of a scene are meshed with one target edge length `h = L / resolution`, `L` the
+//! scene's [`Scene::reference_length`]. A capsule, sphere or tube of radius `r` gets
+//! `q = max(2, round(π r / 2h))` latitude steps per quarter circle and `4q` segments around,
+//! with rings spaced like the latitude arcs (about `h`); the lips take `4·round(P / 4h)`
+//! segments around their cross-section of perimeter `P` and rings about `h` apart along the
+//! ring's centerline;
+//! the slab is a grid of cells of about `h`. Vertex counts grow like `resolution²`. Output is
+//! deterministic: the same scene and resolution give the same bytes.
+
+mod catalog;
+mod shapes;
+mod write;
+
+use std::path::{Path, PathBuf};
+
+/// Resolution of the committed `rigs/*.glb` files.
+pub const DEFAULT_RESOLUTION: u32 = 8;
+
+/// Smallest accepted resolution.
+pub const MIN_RESOLUTION: u32 = 1;
+
+/// Largest accepted resolution (the finger then has about 250,000 vertices, a 19 MB file).
+pub const MAX_RESOLUTION: u32 = 64;
+
+/// One of the procedural test scenes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Scene {
+    /// One capsule bent at a middle joint, 0 to 150° ("bend"), or twisted ("twist") (Fig. 13).
+    BendingCapsule,
+    /// A tapered three-phalanx finger flexing past contact (Fig. 15).
+    Finger,
+    /// Upper and lower lip on one mesh, a jaw closing past contact (Fig. 1d).
+    Mouth,
+    /// Two separate capsules crossing, one pressed into the other (Figs. 5, 6).
+    CapsulePair,
+    /// Three fingertips pressing one ball: several contact zones on one body (Fig. 14).
+    FingertipsOnBall,
+    /// A sphere pressed into a thick slab: the rigid-limit case (Fig. 17).
+    SphereOnPlane,
+}
+
+impl Scene {
+    /// Every scene, in a fixed order.
+    pub const ALL: [Scene; 6] = [
+        Scene::BendingCapsule,
+        Scene::Finger,
+        Scene::Mouth,
+        Scene::CapsulePair,
+        Scene::FingertipsOnBall,
+        Scene::SphereOnPlane,
+    ];
+
+    /// File stem and command-line name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Scene::BendingCapsule => "bending_capsule",
+            Scene::Finger => "finger",
+            Scene::Mouth => "mouth",
+            Scene::CapsulePair => "capsule_pair",
+            Scene::FingertipsOnBall => "fingertips_ball",
+            Scene::SphereOnPlane => "sphere_plane",
+        }
+    }
+
+    /// The scene called `name` (as returned by [`Scene::name`]).
+    pub fn from_name(name: &str) -> Option<Scene> {
+        Scene::ALL.into_iter().find(|s| s.name() == name)
+    }
+
+    /// One-line description: bodies, skeleton and animation.
+    pub fn description(self) -> &'static str {
+        match self {
+            Scene::BendingCapsule => {
+                "one capsule (r 0.2, length 2.4) on two bones; 'bend' folds the middle joint 0-150 deg \
+                 about +Z, 'twist' turns the upper bone 0-150 deg about its axis (Fig. 13)"
+            }
+            Scene::Finger => {
+                "a tapered finger on one mesh: metacarpal stub and three phalanges, 4 bones; 'flex' \
+                 bends MCP/PIP/DIP to 100/110/100 deg toward +Z, past contact (Fig. 15)"
+            }
+            Scene::Mouth => {
+                "upper and lower lip as one ring mesh (slit 0.1 high), head and jaw bones; 'close' turns \
+                 the jaw 11 deg: the lower lip sinks 0.12 into the upper one; contact direction vertical (Fig. 1d)"
+            }
+            Scene::CapsulePair => {
+                "two separate capsules (r 0.25) crossing at right angles; 'press' sinks the upper one \
+                 0.75 r into the lower one while turning it 30 deg (Figs. 5, 6)"
+            }
+            Scene::FingertipsOnBall => {
+                "a ball (r 0.5) and three separate fingertip capsules; 'squeeze' presses them 0.1 \
+                 into the ball one after another: three contact zones on one body (Fig. 14)"
+            }
+            Scene::SphereOnPlane => {
+                "a sphere (r 0.5) and a 3 x 0.4 x 3 slab; 'press' sinks the sphere half a radius \
+                 into the slab: rigid-limit case and bulge map (Fig. 17)"
+            }
+        }
+    }
+
+    /// Reference length `L`: the scene is meshed with target edge length `L / resolution`.
+    pub fn reference_length(self) -> f64 {
+        match self {
+            Scene::BendingCapsule => catalog::BENDING_CAPSULE_REF,
+            Scene::Finger => catalog::FINGER_REF,
+            Scene::Mouth => catalog::MOUTH_REF,
+            Scene::CapsulePair => catalog::CAPSULE_PAIR_REF,
+            Scene::FingertipsOnBall => catalog::FINGERTIPS_BALL_REF,
+            Scene::SphereOnPlane => catalog::SPHERE_PLANE_REF,
+        }
+    }
+
+    /// Target edge length at `resolution`.
+    pub fn edge_length(self, resolution: u32) -> f64 {
+        self.reference_length() / f64::from(resolution.max(1))
+    }
+
+    fn spec(self, resolution: u32) -> Result<write::SceneSpec, SceneError> {
+        check_resolution(resolution)?;
+        Ok(match self {
+            Scene::BendingCapsule => catalog::bending_capsule(resolution),
+            Scene::Finger => catalog::finger(resolution),
+            Scene::Mouth => catalog::mouth(resolution),
+            Scene::CapsulePair => catalog::capsule_pair(resolution),
+            Scene::FingertipsOnBall => catalog::fingertips_ball(resolution),
+            Scene::SphereOnPlane => catalog::sphere_plane(resolution),
+        })
+    }
+}
+
+impl std::fmt::Display for Scene {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Why a scene could not be built or written.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    /// The resolution is outside [`MIN_RESOLUTION`]`..=`[`MAX_RESOLUTION`].
+    #[error("resolution {0} is outside {MIN_RESOLUTION}..={MAX_RESOLUTION}")]
+    Resolution(u32),
+    /// Writing a file failed.
+    #[error("cannot write {path}: {source}")]
+    Io {
+        /// The file (or folder) being written.
+        path: PathBuf,
+        /// The underlying error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// Serializing the glTF JSON failed.
+    #[error("cannot serialize the glTF document: {0}")]
+    Json(#[from] gltf_json::Error),
+}
+
+fn check_resolution(resolution: u32) -> Result<(), SceneError> {
+    if (MIN_RESOLUTION..=MAX_RESOLUTION).contains(&resolution) {
+        Ok(())
+    } else {
+        Err(SceneError::Resolution(resolution))
+    }
+}
+
+/// Size and reference volume of one body of a scene.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BodySummary {
+    /// Node name of the body.
+    pub name: String,
+    /// Number of file vertices.
+    pub vertices: usize,
+    /// Number of triangles.
+    pub triangles: usize,
+    /// Volume of the smooth primitive the mesh approximates (capsule `πr²ℓ + 4/3 πr³`, sphere,
+    /// tapered tube, flattened torus, box); the mesh is inscribed, so slightly smaller.
+    pub analytic_volume: f64,
+}
+
+/// The bodies of `scene` at `resolution`, in file order.
+pub fn summarize(scene: Scene, resolution: u32) -> Result<Vec<BodySummary>, SceneError> {
+    let spec = scene.spec(resolution)?;
+    Ok(spec
+        .bodies
+        .iter()
+        .map(|b| BodySummary {
+            name: b.name.to_string(),
+            vertices: b.mesh.positions.len(),
+            triangles: b.mesh.triangles.len(),
+            analytic_volume: b.analytic_volume,
+        })
+        .collect())
+}
+
+/// The GLB bytes of `scene` at `resolution` (deterministic).
+pub fn build_glb(scene: Scene, resolution: u32) -> Result<Vec<u8>, SceneError> {
+    let spec = scene.spec(resolution)?;
+    Ok(write::assemble(&spec)?)
+}
+
+/// Writes `dir/<name>.glb` atomically (creating `dir` if needed) and returns its path.
+pub fn write(scene: Scene, resolution: u32, dir: &Path) -> Result<PathBuf, SceneError> {
+    let bytes = build_glb(scene, resolution)?;
+    std::fs::create_dir_all(dir).map_err(|source| SceneError::Io {
+        path: dir.to_path_buf(),
+        source,
+    })?;
+    let path = dir.join(format!("{}.glb", scene.name()));
+    crate::output::write_atomic(&path, &bytes).map_err(|source| SceneError::Io {
+        path: path.clone(),
+        source,
+    })?;
+    Ok(path)
+}
+
+/// Writes every scene of [`Scene::ALL`] into `dir`; returns the paths in that order.
+pub fn write_all(resolution: u32, dir: &Path) -> Result<Vec<PathBuf>, SceneError> {
+    check_resolution(resolution)?;
+    Scene::ALL
+        .into_iter()
+        .map(|s| write(s, resolution, dir))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_round_trip() {
+        for s in Scene::ALL {
+            assert_eq!(Scene::from_name(s.name()), Some(s));
+        }
+        assert_eq!(Scene::from_name("nope"), None);
+    }
+
+    #[test]
+    fn smoothstep_ends() {
+        assert_eq!(catalog::smoothstep(-1.0), 0.0);
+        assert_eq!(catalog::smoothstep(2.0), 1.0);
+        assert!((catalog::smoothstep(0.5) - 0.5).abs() < 1e-15);
+    }
+}
