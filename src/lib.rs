@@ -9,7 +9,9 @@
 //! | stage | module |
 //! | --- | --- |
 //! | glTF reading, skeleton, animation sampling | [`rig`] |
-//! | welded topology of the skinned meshes | [`mesh`] |
+//! | welded topology of the skinned meshes, discrete operators | [`mesh`] |
+//! | mesh-mesh intersections, farthest-hit rays, silhouettes | [`intersect`] |
+//! | min-cut / max-flow (Boykov-Kolmogorov) | [`mincut`] |
 //! | linear blend, dual quaternion and center-of-rotation skinning | [`skinning`] |
 //! | evaluation of an animation, frame by frame | [`frames`] |
 //! | OBJ frames and baked glb | [`output`] |
@@ -19,7 +21,9 @@
 //! ([`frames::Precomputed`]); every frame is a pure function of the pose.
 
 pub mod frames;
+pub mod intersect;
 pub mod mesh;
+pub mod mincut;
 pub mod output;
 pub mod rig;
 pub mod scenes;

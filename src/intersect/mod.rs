@@ -1,0 +1,1 @@
+//! Mesh-mesh intersections (being written).

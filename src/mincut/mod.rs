@@ -1,0 +1,1 @@
+//! Min-cut (being written).
