@@ -12,6 +12,8 @@
 //! | welded topology of the skinned meshes, discrete operators | [`mesh`] |
 //! | mesh-mesh intersections, farthest-hit rays, silhouettes | [`intersect`] |
 //! | min-cut / max-flow (Boykov-Kolmogorov) | [`mincut`] |
+//! | sparse SPD Cholesky with symbolic reuse | [`solve`] |
+//! | heat method with a source curve, harmonic diffusion on cut meshes | [`heat`] |
 //! | linear blend, dual quaternion and center-of-rotation skinning | [`skinning`] |
 //! | evaluation of an animation, frame by frame | [`frames`] |
 //! | OBJ frames and baked glb | [`output`] |
@@ -21,6 +23,7 @@
 //! ([`frames::Precomputed`]); every frame is a pure function of the pose.
 
 pub mod frames;
+pub mod heat;
 pub mod intersect;
 pub mod mesh;
 pub mod mincut;
@@ -28,3 +31,4 @@ pub mod output;
 pub mod rig;
 pub mod scenes;
 pub mod skinning;
+pub mod solve;

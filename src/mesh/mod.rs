@@ -6,6 +6,11 @@
 //! bounding box), keeps the map back to the file vertices so every result can be written to
 //! every split copy, and reports what is not a clean 2-manifold instead of failing on it.
 
+pub mod operators;
+pub mod region;
+
+pub use region::Region;
+
 use nalgebra::Point3;
 use std::collections::HashMap;
 

@@ -1,0 +1,554 @@
+//! A bounding-volume hierarchy over the triangles of one mesh (or a subset of its faces), built
+//! once on a reference pose and refitted per frame (same topology, new positions).
+//!
+//! Binned SAH build (Wald 2007), flat node array in which children always follow their parent
+//! (so a refit is one reverse sweep), closed-interval box tests on exact per-face boxes: two
+//! triangles that touch always have overlapping boxes, which keeps the candidate pairs
+//! consistent with the exact predicates.
+
+use nalgebra::{Point3, Vector3};
+use rayon::prelude::*;
+
+/// Faces per leaf at most (unless their centroids coincide).
+const MAX_LEAF: usize = 4;
+/// SAH bins per split.
+const BINS: usize = 12;
+/// Candidate pairs from which their visits run in parallel (a rayon call costs tens of
+/// microseconds on a busy machine, a pair test a fraction of one).
+const PARALLEL_PAIRS: usize = 2048;
+
+/// An axis-aligned box, `min <= max` componentwise when not empty.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Aabb {
+    /// Lower corner.
+    pub min: Point3<f64>,
+    /// Upper corner.
+    pub max: Point3<f64>,
+}
+
+impl Aabb {
+    /// The empty box (union identity).
+    pub const EMPTY: Aabb = Aabb {
+        min: Point3::new(f64::INFINITY, f64::INFINITY, f64::INFINITY),
+        max: Point3::new(f64::NEG_INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY),
+    };
+
+    /// Exact bounding box of a triangle.
+    pub fn of_triangle(p: [&Point3<f64>; 3]) -> Aabb {
+        Aabb {
+            min: p[0].inf(&p[1].inf(p[2])),
+            max: p[0].sup(&p[1].sup(p[2])),
+        }
+    }
+
+    /// Smallest box containing both.
+    pub fn union(&self, other: &Aabb) -> Aabb {
+        Aabb {
+            min: self.min.inf(&other.min),
+            max: self.max.sup(&other.max),
+        }
+    }
+
+    /// Closed-interval overlap test (touching boxes overlap).
+    #[inline]
+    pub fn overlaps(&self, other: &Aabb) -> bool {
+        self.min.x <= other.max.x
+            && other.min.x <= self.max.x
+            && self.min.y <= other.max.y
+            && other.min.y <= self.max.y
+            && self.min.z <= other.max.z
+            && other.min.z <= self.max.z
+    }
+
+    /// Half the surface area (the SAH cost weight); 0 for an empty box.
+    fn half_area(&self) -> f64 {
+        let d = self.max - self.min;
+        if d.iter().any(|x| *x < 0.0) {
+            return 0.0;
+        }
+        d.x * d.y + d.y * d.z + d.z * d.x
+    }
+
+    /// Parameter interval `[t0, t1]` of the ray `origin + t dir` inside the box (conservative:
+    /// widened by a few ulps), or `None`.
+    pub fn ray_interval(&self, origin: &Point3<f64>, inv_dir: &Vector3<f64>) -> Option<(f64, f64)> {
+        let (mut t0, mut t1) = (f64::NEG_INFINITY, f64::INFINITY);
+        for k in 0..3 {
+            if inv_dir[k].is_infinite() {
+                // Ray parallel to the slab.
+                if origin[k] < self.min[k] || origin[k] > self.max[k] {
+                    return None;
+                }
+                continue;
+            }
+            let a = (self.min[k] - origin[k]) * inv_dir[k];
+            let b = (self.max[k] - origin[k]) * inv_dir[k];
+            t0 = t0.max(a.min(b));
+            t1 = t1.min(a.max(b));
+        }
+        // Ize 2013: widen the far bound to cover the rounding of the slab distances.
+        let slack = 4.0 * f64::EPSILON;
+        let (t0, t1) = (t0 - slack * t0.abs(), t1 + slack * t1.abs());
+        (t0 <= t1).then_some((t0, t1))
+    }
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Node {
+    aabb: Aabb,
+    /// Leaf: first slot in `faces`; internal: index of the left child (right = left + 1).
+    first: u32,
+    /// Number of faces of a leaf, 0 for an internal node.
+    count: u32,
+}
+
+/// A BVH over a set of faces of one triangle mesh.
+///
+/// Precompute once ([`TriangleBvh::build`]), then [`TriangleBvh::refit`] per frame: the tree
+/// keeps its structure, only the boxes follow the positions. For large deformations a rebuild
+/// gives tighter boxes; results of every query are independent of the tree (they are sorted or
+/// reduced by a total order), so both give identical answers.
+#[derive(Clone, Debug)]
+pub struct TriangleBvh {
+    nodes: Vec<Node>,
+    /// Face id of each leaf slot.
+    faces: Vec<u32>,
+    /// Box of each leaf slot's face (current positions).
+    face_boxes: Vec<Aabb>,
+}
+
+impl TriangleBvh {
+    /// Builds the tree over `faces` (ids into `triangles`, whose indices must be valid for
+    /// `positions`).
+    pub fn build(positions: &[Point3<f64>], triangles: &[[u32; 3]], faces: &[u32]) -> Self {
+        let boxes: Vec<Aabb> = faces
+            .iter()
+            .map(|&f| face_box(positions, &triangles[f as usize]))
+            .collect();
+        let centroids: Vec<Point3<f64>> = boxes
+            .iter()
+            .map(|b| nalgebra::center(&b.min, &b.max))
+            .collect();
+        let mut order: Vec<u32> = (0..faces.len() as u32).collect();
+        let nodes = depth_first(&build_nodes(&boxes, &centroids, &mut order));
+        Self {
+            nodes,
+            faces: order.iter().map(|&i| faces[i as usize]).collect(),
+            face_boxes: order.iter().map(|&i| boxes[i as usize]).collect(),
+        }
+    }
+
+    /// Recomputes every box for new positions of the same mesh (same triangles).
+    pub fn refit(&mut self, positions: &[Point3<f64>], triangles: &[[u32; 3]]) {
+        self.faces
+            .par_iter()
+            .zip(self.face_boxes.par_iter_mut())
+            .with_min_len(1024)
+            .for_each(|(&f, b)| *b = face_box(positions, &triangles[f as usize]));
+        for i in (0..self.nodes.len()).rev() {
+            let n = self.nodes[i];
+            let (first, count) = (n.first as usize, n.count as usize);
+            self.nodes[i].aabb = if count > 0 {
+                self.face_boxes[first..first + count]
+                    .iter()
+                    .fold(Aabb::EMPTY, |acc, b| acc.union(b))
+            } else {
+                self.nodes[first].aabb.union(&self.nodes[first + 1].aabb)
+            };
+        }
+    }
+
+    /// Number of faces in the tree.
+    pub fn face_count(&self) -> usize {
+        self.faces.len()
+    }
+
+    /// Box of the whole tree (`None` when empty).
+    pub fn root_box(&self) -> Option<Aabb> {
+        self.nodes.first().map(|n| n.aabb)
+    }
+
+    /// All face pairs `(face of self, face of other)` whose boxes overlap, sorted.
+    pub fn candidate_pairs(&self, other: &TriangleBvh) -> Vec<(u32, u32)> {
+        let mut pairs = self.pairs_in_tree_order(other);
+        pairs.sort_unstable();
+        pairs
+    }
+
+    /// The candidate pairs mapped through `visit` (which may drop a pair), sorted by pair. The
+    /// visits run in parallel when there are many; the output does not depend on the tree nor
+    /// on the number of threads.
+    pub fn overlapping_pairs<R, F>(&self, other: &TriangleBvh, visit: F) -> Vec<R>
+    where
+        R: Send,
+        F: Fn(u32, u32) -> Option<R> + Sync,
+    {
+        let pairs = self.pairs_in_tree_order(other);
+        let keep = |&(a, b): &(u32, u32)| visit(a, b).map(|r| (a, b, r));
+        let mut out: Vec<(u32, u32, R)> = if pairs.len() < PARALLEL_PAIRS {
+            pairs.iter().filter_map(keep).collect()
+        } else {
+            pairs
+                .par_iter()
+                .with_min_len(PARALLEL_PAIRS / 4)
+                .filter_map(keep)
+                .collect()
+        };
+        out.sort_unstable_by_key(|&(a, b, _)| (a, b));
+        out.into_iter().map(|(_, _, r)| r).collect()
+    }
+
+    fn pairs_in_tree_order(&self, other: &TriangleBvh) -> Vec<(u32, u32)> {
+        let mut pairs = Vec::new();
+        if self.nodes.is_empty() || other.nodes.is_empty() {
+            return pairs;
+        }
+        let mut roots = Vec::with_capacity(1);
+        self.push_overlapping(other, 0, 0, &mut roots);
+        if let Some(&(a, b)) = roots.first() {
+            self.traverse_pairs(other, a, b, &mut |fa, fb| pairs.push((fa, fb)));
+        }
+        pairs
+    }
+
+    fn push_overlapping(&self, other: &TriangleBvh, a: u32, b: u32, out: &mut Vec<(u32, u32)>) {
+        if self.nodes[a as usize]
+            .aabb
+            .overlaps(&other.nodes[b as usize].aabb)
+        {
+            out.push((a, b));
+        }
+    }
+
+    /// Pushes the overlapping child pairs of an overlapping pair (internal nodes split, both
+    /// at once when both are internal); a leaf pair is kept as is.
+    fn expand(&self, other: &TriangleBvh, a: u32, b: u32, out: &mut Vec<(u32, u32)>) {
+        let (na, nb) = (&self.nodes[a as usize], &other.nodes[b as usize]);
+        match (na.count > 0, nb.count > 0) {
+            (true, true) => out.push((a, b)),
+            (false, true) => {
+                self.push_overlapping(other, na.first, b, out);
+                self.push_overlapping(other, na.first + 1, b, out);
+            }
+            (true, false) => {
+                self.push_overlapping(other, a, nb.first, out);
+                self.push_overlapping(other, a, nb.first + 1, out);
+            }
+            (false, false) => {
+                for ca in [na.first, na.first + 1] {
+                    for cb in [nb.first, nb.first + 1] {
+                        self.push_overlapping(other, ca, cb, out);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Depth-first traversal below an overlapping node pair.
+    fn traverse_pairs(&self, other: &TriangleBvh, a: u32, b: u32, emit: &mut impl FnMut(u32, u32)) {
+        let mut stack = Vec::with_capacity(64);
+        stack.push((a, b));
+        while let Some((a, b)) = stack.pop() {
+            let (na, nb) = (&self.nodes[a as usize], &other.nodes[b as usize]);
+            if na.count > 0 && nb.count > 0 {
+                self.leaf_pairs(other, na, nb, emit);
+            } else {
+                self.expand(other, a, b, &mut stack);
+            }
+        }
+    }
+
+    fn leaf_pairs(
+        &self,
+        other: &TriangleBvh,
+        na: &Node,
+        nb: &Node,
+        emit: &mut impl FnMut(u32, u32),
+    ) {
+        let ra = na.first as usize..(na.first + na.count) as usize;
+        let rb = nb.first as usize..(nb.first + nb.count) as usize;
+        for i in ra {
+            let bi = &self.face_boxes[i];
+            if !bi.overlaps(&nb.aabb) {
+                continue;
+            }
+            for j in rb.clone() {
+                if bi.overlaps(&other.face_boxes[j]) {
+                    emit(self.faces[i], other.faces[j]);
+                }
+            }
+        }
+    }
+
+    /// Visits the faces whose box the ray `origin + t dir`, `t ∈ [0, max_t]`, may cross, nodes
+    /// with the largest exit parameter first. `test(face, [t0, t1])` gets the parameter
+    /// interval of the ray inside the face's box and returns the hit parameter clamped to it,
+    /// if any. Subtrees whose exit parameter is below the best hit so far are skipped: box exits
+    /// only grow from a face to its ancestors (exact min/max, monotone rounding), so the faces
+    /// skipped could neither beat nor tie the best, and the result does not depend on the tree.
+    pub(crate) fn farthest_along(
+        &self,
+        origin: &Point3<f64>,
+        dir: &Vector3<f64>,
+        max_t: f64,
+        mut test: impl FnMut(u32, [f64; 2]) -> Option<f64>,
+    ) {
+        if self.nodes.is_empty() {
+            return;
+        }
+        let inv = dir.map(|d| 1.0 / d);
+        let reach = |b: &Aabb| {
+            b.ray_interval(origin, &inv)
+                .filter(|&(t0, t1)| t1 >= 0.0 && t0 <= max_t)
+                .map(|(t0, t1)| [t0.max(0.0), t1.min(max_t)])
+        };
+        let mut best = f64::NEG_INFINITY;
+        let mut stack: Vec<(u32, f64)> = Vec::with_capacity(64);
+        if let Some([_, t1]) = reach(&self.nodes[0].aabb) {
+            stack.push((0, t1));
+        }
+        while let Some((i, t1)) = stack.pop() {
+            if t1 < best {
+                continue;
+            }
+            let n = &self.nodes[i as usize];
+            if n.count > 0 {
+                for slot in n.first as usize..(n.first + n.count) as usize {
+                    let range = reach(&self.face_boxes[slot]).filter(|r| r[1] >= best);
+                    if let Some(t) = range.and_then(|r| test(self.faces[slot], r)) {
+                        best = best.max(t);
+                    }
+                }
+                continue;
+            }
+            let (l, r) = (n.first, n.first + 1);
+            let exit = |c: u32| reach(&self.nodes[c as usize].aabb).map(|r| r[1]);
+            let (tl, tr) = (exit(l), exit(r));
+            // Push the farther-reaching child last so it is popped first.
+            let mut kids = [(l, tl), (r, tr)];
+            if tl.unwrap_or(f64::NEG_INFINITY) > tr.unwrap_or(f64::NEG_INFINITY) {
+                kids.swap(0, 1);
+            }
+            stack.extend(kids.iter().filter_map(|&(c, t)| t.map(|t| (c, t))));
+        }
+    }
+}
+
+fn face_box(positions: &[Point3<f64>], t: &[u32; 3]) -> Aabb {
+    Aabb::of_triangle(t.map(|i| &positions[i as usize]))
+}
+
+/// Builds the node array (children after their parent) and permutes `order` into leaf order.
+fn build_nodes(boxes: &[Aabb], centroids: &[Point3<f64>], order: &mut [u32]) -> Vec<Node> {
+    if order.is_empty() {
+        return Vec::new();
+    }
+    let mut nodes = vec![Node {
+        aabb: Aabb::EMPTY,
+        first: 0,
+        count: 0,
+    }];
+    // (node index, slot range) still to split.
+    let mut todo = vec![(0usize, 0usize, order.len())];
+    while let Some((node, lo, hi)) = todo.pop() {
+        let slots = &mut order[lo..hi];
+        let aabb = slots
+            .iter()
+            .fold(Aabb::EMPTY, |acc, &i| acc.union(&boxes[i as usize]));
+        nodes[node].aabb = aabb;
+        let mid = if slots.len() <= MAX_LEAF {
+            None
+        } else {
+            split(boxes, centroids, slots)
+        };
+        match mid {
+            None => {
+                nodes[node].first = lo as u32;
+                nodes[node].count = (hi - lo) as u32;
+            }
+            Some(m) => {
+                let left = nodes.len();
+                nodes[node].first = left as u32;
+                let blank = nodes[node];
+                nodes.extend([blank, blank]);
+                todo.push((left, lo, lo + m));
+                todo.push((left + 1, lo + m, hi));
+            }
+        }
+    }
+    nodes
+}
+
+/// The same tree with every sibling pair stored right after its parent's subtree position in
+/// depth-first order (left subtree first): traversals walk memory mostly forward.
+fn depth_first(nodes: &[Node]) -> Vec<Node> {
+    let Some(&root) = nodes.first() else {
+        return Vec::new();
+    };
+    let mut out = Vec::with_capacity(nodes.len());
+    out.push(root);
+    let mut stack = vec![(0usize, 0usize)];
+    while let Some((old, new)) = stack.pop() {
+        let n = nodes[old];
+        if n.count > 0 {
+            continue;
+        }
+        let (l, base) = (n.first as usize, out.len());
+        out.extend([nodes[l], nodes[l + 1]]);
+        out[new].first = base as u32;
+        stack.push((l + 1, base + 1));
+        stack.push((l, base));
+    }
+    out
+}
+
+/// Partitions `slots` by a binned SAH split; returns the size of the left part, or `None` to
+/// make a leaf. Falls back to a median split when all centroids fall in one bin.
+fn split(boxes: &[Aabb], centroids: &[Point3<f64>], slots: &mut [u32]) -> Option<usize> {
+    let cb = slots.iter().fold(Aabb::EMPTY, |acc, &i| {
+        let c = centroids[i as usize];
+        acc.union(&Aabb { min: c, max: c })
+    });
+    let extent = cb.max - cb.min;
+    let axis = extent.imax();
+    if extent[axis] <= 0.0 {
+        // Coincident centroids: split in the middle of the (arbitrary but fixed) order.
+        return Some(slots.len() / 2);
+    }
+    let bin_of = |i: u32| {
+        let x = (centroids[i as usize][axis] - cb.min[axis]) / extent[axis];
+        ((x * BINS as f64) as usize).min(BINS - 1)
+    };
+    let mut counts = [0usize; BINS];
+    let mut bin_boxes = [Aabb::EMPTY; BINS];
+    for &i in slots.iter() {
+        let b = bin_of(i);
+        counts[b] += 1;
+        bin_boxes[b] = bin_boxes[b].union(&boxes[i as usize]);
+    }
+    let best = best_bin_split(&counts, &bin_boxes);
+    let mut m = partition(slots, |i| bin_of(i) < best);
+    if m == 0 || m == slots.len() {
+        slots.sort_unstable_by(|&x, &y| {
+            centroids[x as usize][axis].total_cmp(&centroids[y as usize][axis])
+        });
+        m = slots.len() / 2;
+    }
+    Some(m)
+}
+
+/// Index `k` (1..BINS) minimizing the SAH cost of splitting bins `< k` from bins `>= k`.
+fn best_bin_split(counts: &[usize; BINS], bin_boxes: &[Aabb; BINS]) -> usize {
+    let mut right_cost = [0.0f64; BINS];
+    let (mut acc, mut n) = (Aabb::EMPTY, 0usize);
+    for k in (1..BINS).rev() {
+        acc = acc.union(&bin_boxes[k]);
+        n += counts[k];
+        right_cost[k] = acc.half_area() * n as f64;
+    }
+    let (mut acc, mut n) = (Aabb::EMPTY, 0usize);
+    let mut best = (f64::INFINITY, BINS / 2);
+    for k in 1..BINS {
+        acc = acc.union(&bin_boxes[k - 1]);
+        n += counts[k - 1];
+        let cost = acc.half_area() * n as f64 + right_cost[k];
+        if cost < best.0 {
+            best = (cost, k);
+        }
+    }
+    best.1
+}
+
+/// Stable-order-free in-place partition; returns the number of elements satisfying `pred`.
+fn partition(slots: &mut [u32], pred: impl Fn(u32) -> bool) -> usize {
+    let mut m = 0;
+    for i in 0..slots.len() {
+        if pred(slots[i]) {
+            slots.swap(i, m);
+            m += 1;
+        }
+    }
+    m
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A wavy grid (open surface) of `2 n²` triangles.
+    fn wavy(n: usize, z: f64, phase: f64) -> (Vec<Point3<f64>>, Vec<[u32; 3]>) {
+        let mut pos = Vec::new();
+        for j in 0..=n {
+            for i in 0..=n {
+                let (x, y) = (i as f64 / n as f64, j as f64 / n as f64);
+                pos.push(Point3::new(
+                    x,
+                    y,
+                    z + 0.1 * (7.0 * x + phase).sin() * (5.0 * y).cos(),
+                ));
+            }
+        }
+        let id = |i: usize, j: usize| (j * (n + 1) + i) as u32;
+        let mut tris = Vec::new();
+        for j in 0..n {
+            for i in 0..n {
+                tris.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
+                tris.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
+            }
+        }
+        (pos, tris)
+    }
+
+    fn brute(
+        a: &(Vec<Point3<f64>>, Vec<[u32; 3]>),
+        b: &(Vec<Point3<f64>>, Vec<[u32; 3]>),
+    ) -> Vec<(u32, u32)> {
+        let mut out = Vec::new();
+        for (fa, ta) in a.1.iter().enumerate() {
+            for (fb, tb) in b.1.iter().enumerate() {
+                if face_box(&a.0, ta).overlaps(&face_box(&b.0, tb)) {
+                    out.push((fa as u32, fb as u32));
+                }
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn candidate_pairs_match_brute_force_after_build_and_refit() {
+        let (a, b) = (wavy(12, 0.0, 0.0), wavy(10, 0.02, 1.0));
+        let (fa, fb): (Vec<u32>, Vec<u32>) = (
+            (0..a.1.len() as u32).collect(),
+            (0..b.1.len() as u32).collect(),
+        );
+        let mut ta = TriangleBvh::build(&a.0, &a.1, &fa);
+        let tb = TriangleBvh::build(&b.0, &b.1, &fb);
+        let expected = brute(&a, &b);
+        assert!(!expected.is_empty());
+        assert_eq!(ta.candidate_pairs(&tb), expected);
+        // Deform A (same topology) and refit.
+        let moved = wavy(12, 0.01, 2.0);
+        ta.refit(&moved.0, &moved.1);
+        assert_eq!(ta.candidate_pairs(&tb), brute(&moved, &b));
+        let rebuilt = TriangleBvh::build(&moved.0, &moved.1, &fa);
+        assert_eq!(rebuilt.candidate_pairs(&tb), brute(&moved, &b));
+        assert_eq!(
+            ta.overlapping_pairs(&tb, |x, y| Some((x, y))),
+            brute(&moved, &b)
+        );
+    }
+
+    #[test]
+    fn ray_interval_is_conservative_on_touching_boxes() {
+        let b = Aabb {
+            min: Point3::new(0.0, 0.0, 0.0),
+            max: Point3::new(1.0, 1.0, 1.0),
+        };
+        let inv = Vector3::new(1.0, 0.0, 0.0).map(|d| 1.0 / d);
+        // Along the face y = 1 of the box.
+        assert!(b.ray_interval(&Point3::new(-1.0, 1.0, 0.5), &inv).is_some());
+        assert!(b
+            .ray_interval(&Point3::new(-1.0, 1.0 + 1e-12, 0.5), &inv)
+            .is_none());
+    }
+}

@@ -1,0 +1,297 @@
+//! Pose-independent data of one surface (its faces, edges, a BVH built on a reference pose) and
+//! its per-frame counterpart.
+
+use super::bvh::TriangleBvh;
+use super::IntersectError;
+use nalgebra::Point3;
+
+/// The pose-independent part of one surface: a triangle mesh, or the subset of its faces that
+/// forms one side of a self-contact (2021 Sec. 6). Build once per rig, share between frames.
+///
+/// Faces with a repeated vertex index are left out (counted in
+/// [`MeshIndex::index_degenerate_faces`]); geometrically degenerate faces (collinear corners)
+/// are kept: the exact predicates handle them.
+#[derive(Clone, Debug)]
+pub struct MeshIndex {
+    triangles: Vec<[u32; 3]>,
+    vertex_count: usize,
+    faces: Vec<u32>,
+    edges: Vec<[u32; 2]>,
+    /// Edges around each vertex (CSR over `edges`).
+    vertex_edge_offsets: Vec<u32>,
+    vertex_edge_ids: Vec<u32>,
+    /// Vertex used by a face of this surface.
+    used: Vec<bool>,
+    index_degenerate: usize,
+    bvh: TriangleBvh,
+}
+
+impl MeshIndex {
+    /// Index over every face of `triangles`, with the BVH built on `rest_positions`.
+    pub fn new(
+        rest_positions: &[Point3<f64>],
+        triangles: &[[u32; 3]],
+    ) -> Result<Self, IntersectError> {
+        let all: Vec<u32> = (0..triangles.len() as u32).collect();
+        Self::with_faces(rest_positions, triangles, &all)
+    }
+
+    /// Index over the faces `faces` (ids into `triangles`) only; vertex ids stay those of the
+    /// whole mesh.
+    pub fn with_faces(
+        rest_positions: &[Point3<f64>],
+        triangles: &[[u32; 3]],
+        faces: &[u32],
+    ) -> Result<Self, IntersectError> {
+        check_positions(rest_positions)?;
+        let vertex_count = rest_positions.len();
+        let (kept, index_degenerate) = valid_faces(triangles, faces, vertex_count)?;
+        let mut edges: Vec<[u32; 2]> = kept
+            .iter()
+            .flat_map(|&f| {
+                let t = triangles[f as usize];
+                (0..3).map(move |k| canonical(t[k], t[(k + 1) % 3]))
+            })
+            .collect();
+        edges.sort_unstable();
+        edges.dedup();
+        let bvh = TriangleBvh::build(rest_positions, triangles, &kept);
+        let (vertex_edge_offsets, vertex_edge_ids) = vertex_edges(vertex_count, &edges);
+        let mut used = vec![false; vertex_count];
+        for &f in &kept {
+            for v in triangles[f as usize] {
+                used[v as usize] = true;
+            }
+        }
+        Ok(Self {
+            triangles: triangles.to_vec(),
+            vertex_count,
+            faces: kept,
+            edges,
+            vertex_edge_offsets,
+            vertex_edge_ids,
+            used,
+            index_degenerate,
+            bvh,
+        })
+    }
+
+    /// One index per part of a self-contact: faces labelled `1` and faces labelled `2` in
+    /// `parts` (one label per face; other labels belong to neither part).
+    pub fn self_contact_parts(
+        rest_positions: &[Point3<f64>],
+        triangles: &[[u32; 3]],
+        parts: &[u8],
+    ) -> Result<[Self; 2], IntersectError> {
+        if parts.len() != triangles.len() {
+            return Err(IntersectError::PartCount {
+                expected: triangles.len(),
+                got: parts.len(),
+            });
+        }
+        let part = |label: u8| -> Vec<u32> {
+            (0..triangles.len() as u32)
+                .filter(|&f| parts[f as usize] == label)
+                .collect()
+        };
+        Ok([
+            Self::with_faces(rest_positions, triangles, &part(1))?,
+            Self::with_faces(rest_positions, triangles, &part(2))?,
+        ])
+    }
+
+    /// All triangles of the mesh (vertex ids into the positions).
+    pub fn triangles(&self) -> &[[u32; 3]] {
+        &self.triangles
+    }
+
+    /// The faces of this surface, sorted (index-degenerate faces excluded).
+    pub fn faces(&self) -> &[u32] {
+        &self.faces
+    }
+
+    /// The edges of this surface's faces, canonical (`[min, max]`) and sorted.
+    pub fn edges(&self) -> &[[u32; 2]] {
+        &self.edges
+    }
+
+    /// Ids (into [`MeshIndex::edges`]) of the edges around vertex `v`.
+    pub fn vertex_edges(&self, v: u32) -> &[u32] {
+        let (a, b) = (
+            self.vertex_edge_offsets[v as usize] as usize,
+            self.vertex_edge_offsets[v as usize + 1] as usize,
+        );
+        &self.vertex_edge_ids[a..b]
+    }
+
+    /// Whether vertex `v` belongs to a face of this surface.
+    pub fn uses_vertex(&self, v: u32) -> bool {
+        self.used[v as usize]
+    }
+
+    /// Number of vertices of the mesh.
+    pub fn vertex_count(&self) -> usize {
+        self.vertex_count
+    }
+
+    /// Faces left out because they repeat a vertex index.
+    pub fn index_degenerate_faces(&self) -> usize {
+        self.index_degenerate
+    }
+
+    /// Id of the edge `{a, b}` in [`MeshIndex::edges`].
+    pub fn edge_id(&self, a: u32, b: u32) -> Option<u32> {
+        self.edges
+            .binary_search(&canonical(a, b))
+            .ok()
+            .map(|i| i as u32)
+    }
+
+    /// The surface at one frame: the BVH refitted to `positions` (same topology).
+    pub fn pose<'a>(
+        &'a self,
+        positions: &'a [Point3<f64>],
+    ) -> Result<PosedMesh<'a>, IntersectError> {
+        self.check_frame(positions)?;
+        let mut bvh = self.bvh.clone();
+        bvh.refit(positions, &self.triangles);
+        Ok(PosedMesh {
+            index: self,
+            positions,
+            bvh,
+        })
+    }
+
+    /// The surface at one frame with a BVH rebuilt from scratch (tighter after large motions).
+    pub fn pose_rebuilt<'a>(
+        &'a self,
+        positions: &'a [Point3<f64>],
+    ) -> Result<PosedMesh<'a>, IntersectError> {
+        self.check_frame(positions)?;
+        let bvh = TriangleBvh::build(positions, &self.triangles, &self.faces);
+        Ok(PosedMesh {
+            index: self,
+            positions,
+            bvh,
+        })
+    }
+
+    fn check_frame(&self, positions: &[Point3<f64>]) -> Result<(), IntersectError> {
+        if positions.len() != self.vertex_count {
+            return Err(IntersectError::PositionCount {
+                expected: self.vertex_count,
+                got: positions.len(),
+            });
+        }
+        check_positions(positions)
+    }
+}
+
+/// One surface at one frame: its [`MeshIndex`], positions and refitted BVH.
+#[derive(Clone, Debug)]
+pub struct PosedMesh<'a> {
+    index: &'a MeshIndex,
+    positions: &'a [Point3<f64>],
+    bvh: TriangleBvh,
+}
+
+impl<'a> PosedMesh<'a> {
+    /// The pose-independent data.
+    pub fn index(&self) -> &'a MeshIndex {
+        self.index
+    }
+
+    /// Vertex positions of this frame.
+    pub fn positions(&self) -> &'a [Point3<f64>] {
+        self.positions
+    }
+
+    /// All triangles of the mesh.
+    pub fn triangles(&self) -> &'a [[u32; 3]] {
+        &self.index.triangles
+    }
+
+    /// The BVH of this frame.
+    pub fn bvh(&self) -> &TriangleBvh {
+        &self.bvh
+    }
+
+    /// Corner positions of face `f`.
+    pub fn corners(&self, f: u32) -> [&'a Point3<f64>; 3] {
+        let t = &self.index.triangles[f as usize];
+        t.map(|v| &self.positions[v as usize])
+    }
+
+    /// Area of face `f`.
+    pub fn face_area(&self, f: u32) -> f64 {
+        let [a, b, c] = self.corners(f);
+        0.5 * (b - a).cross(&(c - a)).norm()
+    }
+}
+
+/// The faces to keep (sorted, unique, without repeated vertex index) and the number left out;
+/// an error for an out-of-range face or vertex id.
+fn valid_faces(
+    triangles: &[[u32; 3]],
+    faces: &[u32],
+    vertex_count: usize,
+) -> Result<(Vec<u32>, usize), IntersectError> {
+    let mut kept = Vec::with_capacity(faces.len());
+    let mut index_degenerate = 0;
+    for &f in faces {
+        let t = triangles
+            .get(f as usize)
+            .ok_or(IntersectError::FaceOutOfRange(f))?;
+        if let Some(&v) = t.iter().find(|&&v| v as usize >= vertex_count) {
+            return Err(IntersectError::VertexOutOfRange {
+                face: f,
+                vertex: v,
+                vertex_count,
+            });
+        }
+        if t[0] == t[1] || t[1] == t[2] || t[2] == t[0] {
+            index_degenerate += 1;
+        } else {
+            kept.push(f);
+        }
+    }
+    kept.sort_unstable();
+    kept.dedup();
+    Ok((kept, index_degenerate))
+}
+
+/// CSR of the edges around each vertex.
+fn vertex_edges(vertex_count: usize, edges: &[[u32; 2]]) -> (Vec<u32>, Vec<u32>) {
+    let mut offsets = vec![0u32; vertex_count + 1];
+    for e in edges {
+        offsets[e[0] as usize + 1] += 1;
+        offsets[e[1] as usize + 1] += 1;
+    }
+    for i in 0..vertex_count {
+        offsets[i + 1] += offsets[i];
+    }
+    let mut fill: Vec<u32> = offsets[..vertex_count].to_vec();
+    let mut ids = vec![0u32; 2 * edges.len()];
+    for (id, e) in edges.iter().enumerate() {
+        for v in e {
+            ids[fill[*v as usize] as usize] = id as u32;
+            fill[*v as usize] += 1;
+        }
+    }
+    (offsets, ids)
+}
+
+/// `[min, max]` of two vertex ids.
+pub(crate) fn canonical(a: u32, b: u32) -> [u32; 2] {
+    [a.min(b), a.max(b)]
+}
+
+fn check_positions(positions: &[Point3<f64>]) -> Result<(), IntersectError> {
+    match positions
+        .iter()
+        .position(|p| !p.iter().all(|x| x.is_finite()))
+    {
+        Some(i) => Err(IntersectError::NonFinitePosition(i as u32)),
+        None => Ok(()),
+    }
+}

@@ -1,0 +1,236 @@
+//! Sparse symmetric positive definite solves with `faer`: the symbolic analysis (AMD ordering,
+//! elimination tree) is done once per sparsity pattern — once per working region, before any
+//! frame — and only the numeric Cholesky factorization is redone per frame.
+//!
+//! Matrices on a region have one value *slot* per vertex (the diagonal) and one per edge
+//! (the symmetric off-diagonal pair), so a pattern is built from a region's edge list
+//! ([`SpdPattern::new`]) and a matrix is a `Vec<f64>` of slot values ([`SpdPattern::factor`]).
+//! A slot may hold 0 (a coupling cut away in this frame): the pattern, hence the symbolic
+//! factorization, stays valid. faer runs sequentially here (the crate is built without its
+//! `rayon` feature); parallelism goes across frames and regions.
+
+use faer::linalg::solvers::Solve;
+use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
+use faer::sparse::{Pair, SparseColMatRef, SymbolicSparseColMat};
+use faer::{Mat, Side};
+
+/// Why a factorization or solve failed.
+#[derive(Debug, thiserror::Error)]
+pub enum SolveError {
+    /// The pattern could not be analysed (out of memory, index overflow).
+    #[error("symbolic factorization failed: {0}")]
+    Symbolic(String),
+    /// The matrix is not numerically positive definite (a singular Laplacian without Dirichlet
+    /// values, a negative mass, a non-finite value).
+    #[error("Cholesky factorization of the {what} matrix failed: {message}")]
+    NotPositiveDefinite {
+        /// Which matrix.
+        what: &'static str,
+        /// faer's message.
+        message: String,
+    },
+    /// Slot values do not match the pattern.
+    #[error("{got} slot values for a pattern of {expected}")]
+    SlotCount {
+        /// Expected count.
+        expected: usize,
+        /// Given count.
+        got: usize,
+    },
+}
+
+/// The sparsity pattern of a symmetric matrix on `n` unknowns with the given couplings, and its
+/// symbolic Cholesky factorization.
+#[derive(Clone, Debug)]
+pub struct SpdPattern {
+    n: usize,
+    edges: Vec<[u32; 2]>,
+    symbolic: SymbolicSparseColMat<usize>,
+    llt: SymbolicLlt<usize>,
+    /// Position of each slot in the lower-triangular CSC value array.
+    slot_position: Vec<usize>,
+}
+
+impl SpdPattern {
+    /// Analyses the pattern made of the diagonal and the couplings `edges` (pairs of distinct
+    /// unknowns below `n`).
+    pub fn new(n: usize, edges: &[[u32; 2]]) -> Result<Self, SolveError> {
+        let lower = |a: u32, b: u32| Pair {
+            row: a.max(b) as usize,
+            col: a.min(b) as usize,
+        };
+        let mut pairs: Vec<Pair<usize, usize>> = (0..n).map(|i| Pair { row: i, col: i }).collect();
+        pairs.extend(edges.iter().map(|e| lower(e[0], e[1])));
+        let (symbolic, _) = SymbolicSparseColMat::try_new_from_indices(n, n, &pairs)
+            .map_err(|e| SolveError::Symbolic(format!("{e:?}")))?;
+        let llt = SymbolicLlt::try_new(symbolic.as_ref(), Side::Lower)
+            .map_err(|e| SolveError::Symbolic(format!("{e:?}")))?;
+        let col_ptr = symbolic.col_ptr();
+        let row_idx = symbolic.row_idx();
+        let slot_position = pairs
+            .iter()
+            .map(|p| {
+                let (start, end) = (col_ptr[p.col], col_ptr[p.col + 1]);
+                start + row_idx[start..end].binary_search(&p.row).unwrap_or(0)
+            })
+            .collect();
+        Ok(Self {
+            n,
+            edges: edges.to_vec(),
+            symbolic,
+            llt,
+            slot_position,
+        })
+    }
+
+    /// Number of unknowns.
+    pub fn size(&self) -> usize {
+        self.n
+    }
+
+    /// Number of value slots: `n` diagonal entries then one per coupling.
+    pub fn slot_count(&self) -> usize {
+        self.slot_position.len()
+    }
+
+    /// The couplings, in slot order (slot of coupling `e` is `n + e`).
+    pub fn edges(&self) -> &[[u32; 2]] {
+        &self.edges
+    }
+
+    /// Numeric Cholesky factorization of the matrix given by its slot values.
+    pub fn factor(&self, slots: &[f64], what: &'static str) -> Result<Factor, SolveError> {
+        if slots.len() != self.slot_count() {
+            return Err(SolveError::SlotCount {
+                expected: self.slot_count(),
+                got: slots.len(),
+            });
+        }
+        let mut values = vec![0.0; self.symbolic.row_idx().len()];
+        for (&pos, &v) in self.slot_position.iter().zip(slots) {
+            values[pos] += v;
+        }
+        let mat = SparseColMatRef::new(self.symbolic.as_ref(), &values);
+        let llt = Llt::try_new_with_symbolic(self.llt.clone(), mat, Side::Lower).map_err(|e| {
+            SolveError::NotPositiveDefinite {
+                what,
+                message: format!("{e:?}"),
+            }
+        })?;
+        Ok(Factor { llt, n: self.n })
+    }
+}
+
+/// A numeric Cholesky factorization, reusable for any number of right-hand sides.
+#[derive(Debug)]
+pub struct Factor {
+    llt: Llt<usize, f64>,
+    n: usize,
+}
+
+impl Factor {
+    /// Solves `A x = b` in place for one right-hand side.
+    pub fn solve(&self, b: &mut [f64]) {
+        let mut m = Mat::from_fn(self.n, 1, |i, _| b[i]);
+        self.llt.solve_in_place(m.as_mut());
+        for (i, x) in b.iter_mut().enumerate() {
+            *x = m[(i, 0)];
+        }
+    }
+
+    /// Solves `A X = B` in place for `K` right-hand sides stored per unknown (e.g. 3D vectors).
+    pub fn solve_many<const K: usize>(&self, b: &mut [[f64; K]]) {
+        let mut m = Mat::from_fn(self.n, K, |i, j| b[i][j]);
+        self.llt.solve_in_place(m.as_mut());
+        for (i, row) in b.iter_mut().enumerate() {
+            for (j, x) in row.iter_mut().enumerate() {
+                *x = m[(i, j)];
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{DMatrix, DVector};
+
+    /// A chain-plus-chords pattern and a diagonally dominant SPD matrix on it.
+    fn example() -> (usize, Vec<[u32; 2]>, Vec<f64>) {
+        let n = 12;
+        let mut edges: Vec<[u32; 2]> = (0..n as u32 - 1).map(|i| [i, i + 1]).collect();
+        edges.extend([[0, 5], [3, 9], [2, 11], [7, 4]]);
+        let mut slots = vec![0.0; n + edges.len()];
+        for (e, edge) in edges.iter().enumerate() {
+            let w = -0.3 - 0.1 * (e % 4) as f64;
+            slots[n + e] = w;
+            slots[edge[0] as usize] -= w;
+            slots[edge[1] as usize] -= w;
+        }
+        for (i, s) in slots.iter_mut().take(n).enumerate() {
+            *s += 0.5 + 0.01 * i as f64;
+        }
+        (n, edges, slots)
+    }
+
+    fn dense(n: usize, edges: &[[u32; 2]], slots: &[f64]) -> DMatrix<f64> {
+        let mut a = DMatrix::zeros(n, n);
+        for i in 0..n {
+            a[(i, i)] = slots[i];
+        }
+        for (e, edge) in edges.iter().enumerate() {
+            let (i, j) = (edge[0] as usize, edge[1] as usize);
+            a[(i, j)] += slots[n + e];
+            a[(j, i)] += slots[n + e];
+        }
+        a
+    }
+
+    #[test]
+    fn factor_and_solve_match_a_dense_solve() {
+        let (n, edges, slots) = example();
+        let pattern = SpdPattern::new(n, &edges).expect("symbolic");
+        let factor = pattern.factor(&slots, "test").expect("numeric");
+        let b: Vec<f64> = (0..n).map(|i| (i as f64 * 0.7).sin()).collect();
+        let mut x = b.clone();
+        factor.solve(&mut x);
+        let expect = dense(n, &edges, &slots)
+            .lu()
+            .solve(&DVector::from_vec(b.clone()))
+            .expect("dense");
+        for i in 0..n {
+            assert!((x[i] - expect[i]).abs() < 1e-12);
+        }
+        let mut many: Vec<[f64; 3]> = b.iter().map(|&v| [v, 2.0 * v, -v]).collect();
+        factor.solve_many(&mut many);
+        for i in 0..n {
+            assert!((many[i][1] - 2.0 * expect[i]).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn zero_slots_keep_the_pattern_valid() {
+        let (n, edges, mut slots) = example();
+        let pattern = SpdPattern::new(n, &edges).expect("symbolic");
+        slots[n + 3] = 0.0; // a coupling cut away this frame
+        slots[n] = 0.0;
+        pattern.factor(&slots, "test").expect("still SPD");
+    }
+
+    #[test]
+    fn indefinite_and_mismatched_inputs_are_typed_errors() {
+        let (n, edges, mut slots) = example();
+        let pattern = SpdPattern::new(n, &edges).expect("symbolic");
+        assert!(matches!(
+            pattern.factor(&slots[1..], "test"),
+            Err(SolveError::SlotCount { .. })
+        ));
+        slots[4] = -10.0;
+        assert!(matches!(
+            pattern.factor(&slots, "test"),
+            Err(SolveError::NotPositiveDefinite { .. })
+        ));
+        slots[4] = f64::NAN;
+        assert!(pattern.factor(&slots, "test").is_err());
+    }
+}
