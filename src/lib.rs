@@ -22,12 +22,16 @@
 //! Everything that does not depend on the pose is precomputed once per rig
 //! ([`frames::Precomputed`]); every frame is a pure function of the pose.
 
+pub mod contact;
+pub mod deform;
 pub mod frames;
 pub mod heat;
 pub mod intersect;
 pub mod mesh;
 pub mod mincut;
 pub mod output;
+pub mod pass;
+pub mod report;
 pub mod rig;
 pub mod scenes;
 pub mod skinning;

@@ -1,0 +1,391 @@
+//! Mapping regions and the farthest-hit mapping (2021 Sec. 4.2; Algorithm 1 lines 6-16).
+//!
+//! For side `l` of a contact with cast direction `m̂_l` (`PIPELINE.md`: `m̂_l = -d̄_l`, rays for
+//! `l`'s vertices go along `m̂_l`, `l` is front-facing where `n·m̂_l ≤ 0`):
+//! 1. `B_l`: the front-facing vertices of the intersection region `I_l`;
+//! 2. `P_l(B_k)`: the other side's interpolated contours (Hertzmann & Zorin 2000) inside `I_k`
+//!    are extruded along the (shared) mapping axis; every front-facing edge of `l` crossing an
+//!    extruded quad tags its ends inside or outside, and the inside tags are propagated over
+//!    front-facing vertices without crossing a quad. All rays are parallel, so the extrusion
+//!    test is exact in the plane orthogonal to the axis;
+//! 3. `M_l = B_l ∪ P_l(B_k)`: every vertex of `M_l` is matched with the farthest hit of its ray
+//!    on the other surface.
+//!
+//! Propagation also stops at vertices whose ray finds no hit (a vertex of `M_l` must be
+//! mappable); [`MappingStats::misses`] counts them.
+
+use crate::intersect::{
+    farthest_hit, FrontSide, IntersectionRegion, PosedMesh, Ray, RayHit, Silhouette,
+};
+use nalgebra::{Point3, Vector2, Vector3};
+use std::collections::{HashMap, VecDeque};
+
+/// One side of a contact in the current frame.
+#[derive(Clone, Copy, Debug)]
+pub struct SideFrame<'m, 'a> {
+    /// The surface (positions, triangles, BVH).
+    pub mesh: &'m PosedMesh<'a>,
+    /// Unit vertex normals.
+    pub normals: &'m [Vector3<f64>],
+}
+
+/// Where a point of one surface lands on the other: `p''` of Algorithm 1 line 16.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Mapping {
+    /// The farthest hit on the other surface.
+    pub target: Point3<f64>,
+    /// Unit interpolated normal of the other surface at the target.
+    pub target_normal: Vector3<f64>,
+}
+
+/// A point where an extruded contour quad of the other side crosses an edge of this side: a
+/// boundary point of `P_l(B_k)`, mapped onto the contour.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WallPoint {
+    /// Parameter from the edge's first vertex (`edge[0] < edge[1]`).
+    pub t: f64,
+    /// Its mapping: the contour point of the other side.
+    pub mapping: Mapping,
+}
+
+/// Counters of a mapping-region computation.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct MappingStats {
+    /// Vertices of `B_l`.
+    pub front_inside: usize,
+    /// Vertices added by the projected region `P_l(B_k)`.
+    pub projected: usize,
+    /// Contour segments of the other side extruded.
+    pub contour_segments: usize,
+    /// Edge-quad crossings.
+    pub wall_crossings: usize,
+    /// Rays cast.
+    pub rays: usize,
+    /// Candidate vertices whose ray found no hit (left out of `M_l`).
+    pub misses: usize,
+}
+
+/// The mapping region `M_l` of one side and the mapping of its vertices.
+#[derive(Clone, Debug, Default)]
+pub struct MappingRegion {
+    /// Per vertex of the mesh: its mapping when it belongs to `M_l`.
+    pub mapped: Vec<Option<Mapping>>,
+    /// The vertices of `M_l`, sorted.
+    pub members: Vec<u32>,
+    /// Quad crossings per edge `[a, b]` (`a < b`), sorted by `t`.
+    pub walls: HashMap<[u32; 2], Vec<WallPoint>>,
+    /// Counters.
+    pub stats: MappingStats,
+}
+
+/// Computes `M_l` for side `own` (cast direction `cast`, intersection region flags
+/// `own_inside`) against `other` (its intersection region `other_region`). `reach` bounds ray
+/// lengths (a length larger than both surfaces).
+pub fn mapping_region(
+    own: SideFrame,
+    other: SideFrame,
+    own_inside: &[bool],
+    other_region: &IntersectionRegion,
+    cast: &Vector3<f64>,
+    reach: f64,
+) -> MappingRegion {
+    let index = own.mesh.index();
+    let n = own.mesh.positions().len();
+    let front: Vec<bool> = (0..n)
+        .map(|v| index.uses_vertex(v as u32) && own.normals[v].dot(cast) <= 0.0)
+        .collect();
+    let mut region = MappingRegion {
+        mapped: vec![None; n],
+        ..Default::default()
+    };
+    let seeds: Vec<u32> = (0..n as u32)
+        .filter(|&v| front[v as usize] && own_inside.get(v as usize) == Some(&true))
+        .collect();
+    let rays: Vec<Ray> = seeds
+        .iter()
+        .map(|&v| ray_from(own, v, cast, reach))
+        .collect();
+    let hits = crate::intersect::farthest_hits(other.mesh, &rays);
+    region.stats.rays += rays.len();
+    for (&v, hit) in seeds.iter().zip(hits) {
+        match hit {
+            Some(h) => {
+                region.mapped[v as usize] = Some(mapping_of(other, &h));
+                region.stats.front_inside += 1;
+            }
+            None => region.stats.misses += 1,
+        }
+    }
+    let walls = Walls::new(other, other_region, cast);
+    region.stats.contour_segments = walls.segments.len();
+    if !walls.segments.is_empty() {
+        let tags = walls.crossings(own, &mut region);
+        propagate(own, other, &front, &tags, cast, reach, &mut region);
+    }
+    region.members = (0..n as u32)
+        .filter(|&v| region.mapped[v as usize].is_some())
+        .collect();
+    region
+}
+
+/// The ray of vertex `v` along `cast`.
+fn ray_from(own: SideFrame, v: u32, cast: &Vector3<f64>, reach: f64) -> Ray {
+    Ray::new(own.mesh.positions()[v as usize], *cast, reach)
+}
+
+/// The mapping given by a ray hit on `other`.
+pub fn mapping_of(other: SideFrame, hit: &RayHit) -> Mapping {
+    Mapping {
+        target: hit.point,
+        target_normal: interpolated_normal(other, hit.face, hit.bary),
+    }
+}
+
+/// Unit linear interpolation of vertex normals inside a face (zero if they cancel).
+pub fn interpolated_normal(side: SideFrame, face: u32, bary: [f64; 3]) -> Vector3<f64> {
+    let t = side.mesh.triangles()[face as usize];
+    let n = (0..3).fold(Vector3::zeros(), |acc, k| {
+        acc + side.normals[t[k] as usize] * bary[k]
+    });
+    n.try_normalize(1e-12).unwrap_or_else(Vector3::zeros)
+}
+
+/// Maps an arbitrary point of `own` (e.g. a point on an edge) by casting its ray.
+pub fn map_point(
+    other: SideFrame,
+    point: &Point3<f64>,
+    cast: &Vector3<f64>,
+    reach: f64,
+) -> Option<Mapping> {
+    farthest_hit(other.mesh, &Ray::new(*point, *cast, reach)).map(|h| mapping_of(other, &h))
+}
+
+/// One extruded contour segment of the other side, projected on the plane orthogonal to the
+/// mapping axis.
+struct WallSegment {
+    ends: [Vector2<f64>; 2],
+    /// Sign of `cross(end - start, x - start)` for points `x` on the inside (front) side.
+    inside_sign: f64,
+    points: [Point3<f64>; 2],
+    normals: [Vector3<f64>; 2],
+}
+
+/// The extruded contour quads of the other side (Algorithm 1 lines 8-10).
+struct Walls {
+    basis: [Vector3<f64>; 2],
+    segments: Vec<WallSegment>,
+    lo: Vector2<f64>,
+    hi: Vector2<f64>,
+}
+
+impl Walls {
+    fn new(other: SideFrame, other_region: &IntersectionRegion, cast: &Vector3<f64>) -> Self {
+        let basis = orthonormal_basis(cast);
+        let mut faces: Vec<u32> = other_region.whole_faces.clone();
+        faces.extend(other_region.cut_faces.iter().map(|c| c.face));
+        let positions = other.mesh.positions();
+        let tris = other.mesh.triangles();
+        // The other side is cast along -cast: its front is n·(-cast) ≤ 0.
+        let sil = Silhouette::compute_on_faces(
+            positions,
+            tris,
+            other.normals,
+            &(-cast),
+            FrontSide::NonPositive,
+            &faces,
+        )
+        .unwrap_or_default();
+        let project =
+            |p: &Point3<f64>| Vector2::new(p.coords.dot(&basis[0]), p.coords.dot(&basis[1]));
+        let mut segments = Vec::new();
+        for s in &sil.segments {
+            let [c0, c1] = s.points.map(|k| sil.points[k as usize]);
+            let ends = [project(&c0.point), project(&c1.point)];
+            let dir = ends[1] - ends[0];
+            let t = tris[s.face as usize];
+            let front_corner = t
+                .iter()
+                .find(|&&v| other.normals[v as usize].dot(cast) >= 0.0)
+                .map(|&v| project(&positions[v as usize]));
+            let Some(corner) = front_corner else { continue };
+            let side = cross2(&dir, &(corner - ends[0]));
+            if side == 0.0 || dir.norm_squared() == 0.0 {
+                continue;
+            }
+            let normal_at = |c: &crate::intersect::ContourPoint| {
+                let (a, b) = (c.edge[0] as usize, c.edge[1] as usize);
+                (other.normals[a] * (1.0 - c.t) + other.normals[b] * c.t)
+                    .try_normalize(1e-12)
+                    .unwrap_or_else(Vector3::zeros)
+            };
+            segments.push(WallSegment {
+                ends,
+                inside_sign: side.signum(),
+                points: [c0.point, c1.point],
+                normals: [normal_at(&c0), normal_at(&c1)],
+            });
+        }
+        let (mut lo, mut hi) = (
+            Vector2::repeat(f64::INFINITY),
+            Vector2::repeat(f64::NEG_INFINITY),
+        );
+        for s in &segments {
+            for e in &s.ends {
+                lo = lo.inf(e);
+                hi = hi.sup(e);
+            }
+        }
+        Self {
+            basis,
+            segments,
+            lo,
+            hi,
+        }
+    }
+
+    fn project(&self, p: &Point3<f64>) -> Vector2<f64> {
+        Vector2::new(p.coords.dot(&self.basis[0]), p.coords.dot(&self.basis[1]))
+    }
+
+    /// Lines 11-12: tags the ends of front-facing edges crossing a quad; records the crossings.
+    /// Returns per vertex: `Some(true)` inside, `Some(false)` outside (outside wins).
+    fn crossings(&self, own: SideFrame, region: &mut MappingRegion) -> Vec<Option<bool>> {
+        let positions = own.mesh.positions();
+        let mut tags: Vec<Option<bool>> = vec![None; positions.len()];
+        for &[a, b] in own.mesh.index().edges() {
+            let (pa, pb) = (
+                self.project(&positions[a as usize]),
+                self.project(&positions[b as usize]),
+            );
+            if pa.sup(&pb).x < self.lo.x
+                || pa.sup(&pb).y < self.lo.y
+                || pa.inf(&pb).x > self.hi.x
+                || pa.inf(&pb).y > self.hi.y
+            {
+                continue;
+            }
+            for seg in &self.segments {
+                let Some((t, s)) = segment_crossing(&pa, &pb, &seg.ends[0], &seg.ends[1]) else {
+                    continue;
+                };
+                // Only front-facing edges: g(t) = n(t)·m̂ ≤ 0 at the crossing.
+                let g = |v: u32| own.normals[v as usize].dot(&self.normal_axis());
+                if g(a) * (1.0 - t) + g(b) * t > 0.0 {
+                    continue;
+                }
+                let dir = seg.ends[1] - seg.ends[0];
+                for (v, p) in [(a, pa), (b, pb)] {
+                    let inside = cross2(&dir, &(p - seg.ends[0])) * seg.inside_sign > 0.0;
+                    let tag = &mut tags[v as usize];
+                    *tag = Some(tag.unwrap_or(true) && inside);
+                }
+                let target = seg.points[0] + (seg.points[1] - seg.points[0]) * s;
+                let normal = (seg.normals[0] * (1.0 - s) + seg.normals[1] * s)
+                    .try_normalize(1e-12)
+                    .unwrap_or_else(Vector3::zeros);
+                region.walls.entry([a, b]).or_default().push(WallPoint {
+                    t,
+                    mapping: Mapping {
+                        target,
+                        target_normal: normal,
+                    },
+                });
+                region.stats.wall_crossings += 1;
+            }
+        }
+        for w in region.walls.values_mut() {
+            w.sort_by(|x, y| x.t.total_cmp(&y.t));
+        }
+        tags
+    }
+
+    /// The mapping axis (unit, the cast direction of the own side), from the basis.
+    fn normal_axis(&self) -> Vector3<f64> {
+        self.basis[0].cross(&self.basis[1])
+    }
+}
+
+/// Line 13: propagates the inside tags over front-facing vertices, across edges that cross no
+/// quad, mapping every vertex reached.
+fn propagate(
+    own: SideFrame,
+    other: SideFrame,
+    front: &[bool],
+    tags: &[Option<bool>],
+    cast: &Vector3<f64>,
+    reach: f64,
+    region: &mut MappingRegion,
+) {
+    let index = own.mesh.index();
+    let mut visited = vec![false; tags.len()];
+    let mut queue: VecDeque<u32> = (0..tags.len() as u32)
+        .filter(|&v| tags[v as usize] == Some(true) && front[v as usize])
+        .collect();
+    for &v in &queue {
+        visited[v as usize] = true;
+    }
+    while let Some(v) = queue.pop_front() {
+        if region.mapped[v as usize].is_none() {
+            region.stats.rays += 1;
+            match farthest_hit(other.mesh, &ray_from(own, v, cast, reach)) {
+                Some(h) => {
+                    region.mapped[v as usize] = Some(mapping_of(other, &h));
+                    region.stats.projected += 1;
+                }
+                None => {
+                    region.stats.misses += 1;
+                    continue;
+                }
+            }
+        }
+        for &e in index.vertex_edges(v) {
+            let edge = index.edges()[e as usize];
+            let w = if edge[0] == v { edge[1] } else { edge[0] };
+            let wi = w as usize;
+            if visited[wi]
+                || !front[wi]
+                || tags[wi] == Some(false)
+                || region.walls.contains_key(&edge)
+            {
+                continue;
+            }
+            visited[wi] = true;
+            queue.push_back(w);
+        }
+    }
+}
+
+/// Two unit vectors completing `axis` to a right-handed orthonormal frame.
+pub fn orthonormal_basis(axis: &Vector3<f64>) -> [Vector3<f64>; 2] {
+    let a = axis.normalize();
+    let helper = if a.x.abs() < 0.6 {
+        Vector3::x()
+    } else {
+        Vector3::y()
+    };
+    let e1 = (helper - a * a.dot(&helper)).normalize();
+    let e2 = a.cross(&e1);
+    [e1, e2]
+}
+
+fn cross2(a: &Vector2<f64>, b: &Vector2<f64>) -> f64 {
+    a.x * b.y - a.y * b.x
+}
+
+/// Proper crossing of segments `p0 p1` and `q0 q1`: parameters `(t, s)` along each.
+fn segment_crossing(
+    p0: &Vector2<f64>,
+    p1: &Vector2<f64>,
+    q0: &Vector2<f64>,
+    q1: &Vector2<f64>,
+) -> Option<(f64, f64)> {
+    let (r, s) = (p1 - p0, q1 - q0);
+    let denom = cross2(&r, &s);
+    if denom == 0.0 {
+        return None;
+    }
+    let qp = q0 - p0;
+    let t = cross2(&qp, &s) / denom;
+    let u = cross2(&qp, &r) / denom;
+    ((0.0..=1.0).contains(&t) && (0.0..=1.0).contains(&u)).then_some((t, u))
+}

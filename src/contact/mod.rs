@@ -1,0 +1,269 @@
+//! The contact surface between two working regions (2021 Sec. 4; Algorithm 1): intersection,
+//! mapping direction, mapping regions, potential contact surface, contact zones.
+//!
+//! | step | paper | module |
+//! | --- | --- | --- |
+//! | mapping direction `d̂` (Eq. 2) | Sec. 4.1 | [`direction`] |
+//! | mapping regions `M_l`, farthest-hit mapping | Sec. 4.2 | [`mapping`] |
+//! | potential surface `S`, threshold (Eq. 4), zones (Eq. 3, 5) | Sec. 4.3-4.4 | [`zones`] |
+//!
+//! Conventions (`PIPELINE.md`): `d̄_l` is the mapping direction of side `l`, oriented outward
+//! for `l` (`d̄_B = -d̄_A`); `m̂_l = -d̄_l` is its cast (push) direction; `k̄_l` its relative
+//! stiffness: `l` moves `(1 - k̄_l) δ`. The paper's captions quote `k̄_X` as the share `X`
+//! moves, i.e. `1 - k̄_X` here.
+
+pub mod direction;
+pub mod mapping;
+pub mod zones;
+
+use crate::intersect::{
+    IntersectError, IntersectionRegion, IntersectionStats, Intersections, PosedMesh, Side,
+};
+pub use mapping::{Mapping, MappingRegion, MappingStats, SideFrame};
+use nalgebra::Vector3;
+use std::time::Instant;
+pub use zones::{SurfaceSample, Zone, ZoneBoundaryPoint};
+
+/// How the mapping direction of a pair is chosen (Sec. 4.1).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum DirectionMode {
+    /// From the normals over the intersection regions (Eq. 2).
+    Automatic,
+    /// Set by the user: the direction of side A, outward for A (pointing from A toward B
+    /// across the contact). Keyframed directions are sampled by the caller.
+    Fixed(Vector3<f64>),
+}
+
+/// Parameters of one contact pair.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PairParams {
+    /// `k̄_A = k_A / (k_A + k_B)`: A moves `(1 - k̄_A) δ`, B moves `k̄_A δ`.
+    pub stiffness_a: f64,
+    /// `τ` of Eq. 4 (apparent stiffness: extent of the contact zone).
+    pub tau: f64,
+    /// The mapping direction.
+    pub direction: DirectionMode,
+}
+
+impl Default for PairParams {
+    fn default() -> Self {
+        Self {
+            stiffness_a: 0.5,
+            tau: 0.0,
+            direction: DirectionMode::Automatic,
+        }
+    }
+}
+
+impl PairParams {
+    /// The same contact seen with A and B swapped.
+    pub fn swapped(&self) -> Self {
+        Self {
+            stiffness_a: 1.0 - self.stiffness_a,
+            tau: self.tau,
+            direction: match self.direction {
+                DirectionMode::Automatic => DirectionMode::Automatic,
+                DirectionMode::Fixed(d) => DirectionMode::Fixed(-d),
+            },
+        }
+    }
+}
+
+/// One side of a resolved contact.
+#[derive(Clone, Debug)]
+pub struct ContactSide {
+    /// `d̄_l`, outward for this side.
+    pub direction: Vector3<f64>,
+    /// `m̂_l = -d̄_l`.
+    pub cast: Vector3<f64>,
+    /// `k̄_l`.
+    pub stiffness: f64,
+    /// Samples on `S` of the vertices of `M_l` (indexed by mesh vertex).
+    pub samples: Vec<Option<SurfaceSample>>,
+    /// `C_l` and its exact boundary.
+    pub zone: Zone,
+    /// Counters of the mapping step.
+    pub mapping: MappingStats,
+    /// Boundary points of `M_l` found by bisection.
+    pub bisected_boundaries: usize,
+    /// The intersection points on this side's edges: `(edge [a, b] with a < b, t from a)`.
+    pub crossings: Vec<([u32; 2], f64)>,
+}
+
+/// Time spent per step, in seconds (the paper's Table 1 columns i., m., c.).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ContactTimings {
+    /// Intersection detection and regions.
+    pub intersection: f64,
+    /// Direction and mapping.
+    pub mapping: f64,
+    /// Potential surface, threshold and zones.
+    pub zones: f64,
+}
+
+/// A resolved contact between sides A and B.
+#[derive(Clone, Debug)]
+pub struct Contact {
+    /// `[A, B]`.
+    pub sides: [ContactSide; 2],
+    /// `ε_c` (Eq. 4).
+    pub threshold: f64,
+    /// `m_S`.
+    pub mean_depth: f64,
+    /// `σ_S`.
+    pub depth_deviation: f64,
+    /// Counters of the intersection query.
+    pub intersections: IntersectionStats,
+    /// Per-step timings.
+    pub timings: ContactTimings,
+}
+
+/// Why a contact could not be computed.
+#[derive(Debug, thiserror::Error)]
+pub enum ContactError {
+    /// Invalid geometry for the intersection queries.
+    #[error(transparent)]
+    Intersect(#[from] IntersectError),
+    /// A user direction that is zero or not finite.
+    #[error("the mapping direction {0:?} is zero or not finite")]
+    BadDirection([f64; 3]),
+    /// The normal arrays do not match the meshes.
+    #[error("expected {expected} normals, got {got}")]
+    NormalCount {
+        /// Vertices.
+        expected: usize,
+        /// Normals.
+        got: usize,
+    },
+}
+
+/// Algorithm 1 for one pair: `None` when the surfaces do not intersect (or when the
+/// intersection has no area and no direction can be derived: a grazing touch).
+pub fn resolve_pair(
+    a: SideFrame,
+    b: SideFrame,
+    params: &PairParams,
+) -> Result<Option<Contact>, ContactError> {
+    for s in [&a, &b] {
+        let (expected, got) = (s.mesh.positions().len(), s.normals.len());
+        if expected != got {
+            return Err(ContactError::NormalCount { expected, got });
+        }
+    }
+    let start = Instant::now();
+    let ints = Intersections::between(a.mesh, b.mesh);
+    if ints.is_empty() {
+        return Ok(None);
+    }
+    let regions = [
+        IntersectionRegion::inside(&ints, Side::A, a.mesh)?,
+        IntersectionRegion::inside(&ints, Side::B, b.mesh)?,
+    ];
+    let t_int = start.elapsed().as_secs_f64();
+    let Some(dir_a) = pair_direction(a, b, &regions, params)? else {
+        return Ok(None);
+    };
+    let reach = 2.0 * reach_of(a.mesh, b.mesh);
+    let frames = [
+        zones::SurfaceFrame {
+            cast: -dir_a,
+            stiffness: params.stiffness_a.clamp(0.0, 1.0),
+        },
+        zones::SurfaceFrame {
+            cast: dir_a,
+            stiffness: 1.0 - params.stiffness_a.clamp(0.0, 1.0),
+        },
+    ];
+    let sides = [(a, b, Side::A), (b, a, Side::B)];
+    let mapped: Vec<MappingRegion> = (0..2)
+        .map(|k| {
+            let (own, other, _) = sides[k];
+            mapping::mapping_region(
+                own,
+                other,
+                &regions[k].inside,
+                &regions[1 - k],
+                &frames[k].cast,
+                reach,
+            )
+        })
+        .collect();
+    let t_map = start.elapsed().as_secs_f64();
+    let hits: Vec<zones::EdgeHits> = sides
+        .iter()
+        .map(|&(_, other, s)| zones::edge_hits(&ints, s, other))
+        .collect();
+    let inputs: Vec<zones::SideInput> = (0..2)
+        .map(|k| zones::SideInput {
+            own: sides[k].0,
+            other: sides[k].1,
+            region: &mapped[k],
+            hits: &hits[k],
+            frame: frames[k],
+            reach,
+        })
+        .collect();
+    let samples: Vec<zones::SideSamples> = inputs.iter().map(|i| i.samples()).collect();
+    let moments = [
+        zones::depth_moments(a.mesh.triangles(), &samples[0]),
+        zones::depth_moments(b.mesh.triangles(), &samples[1]),
+    ];
+    let (threshold, mean_depth, depth_deviation) = zones::threshold(moments, params.tau);
+    let zone_of = |k: usize| zones::zone(&inputs[k], &samples[k], threshold);
+    let side = |k: usize| ContactSide {
+        direction: -frames[k].cast,
+        cast: frames[k].cast,
+        stiffness: frames[k].stiffness,
+        samples: samples[k].vertices.clone(),
+        zone: zone_of(k),
+        mapping: mapped[k].stats,
+        bisected_boundaries: samples[k].bisected,
+        crossings: hits[k]
+            .iter()
+            .flat_map(|(e, list)| list.iter().map(move |(t, _)| (*e, *t)))
+            .collect(),
+    };
+    let sides = [side(0), side(1)];
+    let t_zone = start.elapsed().as_secs_f64();
+    Ok(Some(Contact {
+        sides,
+        threshold,
+        mean_depth,
+        depth_deviation,
+        intersections: ints.stats,
+        timings: ContactTimings {
+            intersection: t_int,
+            mapping: t_map - t_int,
+            zones: t_zone - t_map,
+        },
+    }))
+}
+
+fn pair_direction(
+    a: SideFrame,
+    b: SideFrame,
+    regions: &[IntersectionRegion; 2],
+    params: &PairParams,
+) -> Result<Option<Vector3<f64>>, ContactError> {
+    match params.direction {
+        DirectionMode::Fixed(d) => d
+            .try_normalize(1e-300)
+            .filter(|d| d.iter().all(|x| x.is_finite()))
+            .map(Some)
+            .ok_or(ContactError::BadDirection([d.x, d.y, d.z])),
+        DirectionMode::Automatic => {
+            let sa = direction::NormalStats::over(&regions[0], a.mesh, a.normals);
+            let sb = direction::NormalStats::over(&regions[1], b.mesh, b.normals);
+            Ok(direction::automatic_direction(sa.as_ref(), sb.as_ref()))
+        }
+    }
+}
+
+/// The diagonal of the box around both surfaces.
+fn reach_of(a: &PosedMesh, b: &PosedMesh) -> f64 {
+    let boxes = [a.bvh().root_box(), b.bvh().root_box()];
+    let mut it = boxes.iter().flatten();
+    let Some(first) = it.next() else { return 1.0 };
+    let all = it.fold(*first, |acc, x| acc.union(x));
+    (all.max - all.min).norm().max(1e-9)
+}

@@ -1,0 +1,446 @@
+//! The potential contact surface `S` (2021 Sec. 4.3) and the contact zones with their exact
+//! boundaries (Sec. 4.4, Eq. 3-5; Algorithm 1 lines 17-27).
+//!
+//! Every point of a mapping region is sampled on `S`: `p' = p + (1 - k̄_l) δ` with
+//! `δ = p'' - p` (line 20, `k̄_l` the relative stiffness of the own side), and its normal on
+//! `S` is the corrected formula of `PIPELINE.md` (Appendix A as printed is off by up to 90°):
+//! with `c_o = n_o·m̂`, `c_x = n_x·m̂` (`m̂` the own cast direction),
+//! `v = k̄_own |c_x| sgn(c_o) n_o + k̄_other |c_o| sgn(c_x) n_x`, `n' = v / |v|`. Then `δ·n' ≥ 0`
+//! and the other side gets the same value at the same point of `S` (symmetry).
+//!
+//! The threshold `ε_c = m_S + τ σ_S` (Eq. 4) uses the area-weighted mean and standard deviation
+//! of `δ·n'` over both projected mapping regions, clipped exactly at their boundary points, so
+//! it moves continuously as vertices enter or leave the regions.
+
+use super::mapping::{interpolated_normal, map_point, Mapping, MappingRegion, SideFrame};
+use nalgebra::{Point3, Vector3};
+use std::collections::HashMap;
+
+/// `cos 80°`: the safeguard of Sec. 4.4.
+pub const SAFEGUARD_COS: f64 = 0.173_648_177_666_930_4;
+
+/// A point of a mapping region and its image on the potential contact surface.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceSample {
+    /// The point on the own surface.
+    pub point: Point3<f64>,
+    /// Unit own normal at the point.
+    pub own_normal: Vector3<f64>,
+    /// Its mapping onto the other surface.
+    pub mapping: Mapping,
+    /// `p'`: the point on `S`.
+    pub surface_point: Point3<f64>,
+    /// `n'`: the normal of `S` there (zero where undefined).
+    pub surface_normal: Vector3<f64>,
+    /// `δ·n'` (Eq. 3).
+    pub depth: f64,
+    /// `min(n_own·d̄_l, -n_other·d̄_l)` (the safeguard of Sec. 4.4).
+    pub safeguard: f64,
+}
+
+/// How the potential surface is built on one side.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceFrame {
+    /// `m̂_l`.
+    pub cast: Vector3<f64>,
+    /// `k̄_l`, the relative stiffness of this side.
+    pub stiffness: f64,
+}
+
+impl SurfaceFrame {
+    /// Samples `point` (with unit own normal `own_normal`) mapped to `mapping`.
+    pub fn sample(
+        &self,
+        point: Point3<f64>,
+        own_normal: Vector3<f64>,
+        mapping: Mapping,
+    ) -> SurfaceSample {
+        let delta = mapping.target - point;
+        let (k_own, k_other) = (self.stiffness, 1.0 - self.stiffness);
+        let n_x = mapping.target_normal;
+        let (c_o, c_x) = (own_normal.dot(&self.cast), n_x.dot(&self.cast));
+        let v =
+            own_normal * (k_own * c_x.abs() * sign(c_o)) + n_x * (k_other * c_o.abs() * sign(c_x));
+        let surface_normal = v.try_normalize(1e-300).unwrap_or_else(Vector3::zeros);
+        SurfaceSample {
+            point,
+            own_normal,
+            mapping,
+            surface_point: point + delta * k_other,
+            surface_normal,
+            depth: delta.dot(&surface_normal),
+            safeguard: (-c_o).min(c_x),
+        }
+    }
+}
+
+fn sign(x: f64) -> f64 {
+    if x > 0.0 {
+        1.0
+    } else if x < 0.0 {
+        -1.0
+    } else {
+        0.0
+    }
+}
+
+/// The samples of one side: at its mapped vertices, and at the boundary of its mapping region
+/// on every edge leaving it.
+#[derive(Clone, Debug, Default)]
+pub struct SideSamples {
+    /// Per mesh vertex, the sample of a vertex of `M_l`.
+    pub vertices: Vec<Option<SurfaceSample>>,
+    /// Per directed edge `(inside, outside)` of `M_l`: parameter from the inside vertex of the
+    /// boundary point of `M_l`, and its sample.
+    pub boundary: HashMap<(u32, u32), (f64, SurfaceSample)>,
+    /// Boundary points found by bisection of ray hits (no intersection point nor quad on the
+    /// edge): approximate to `2^-30` of the edge.
+    pub bisected: usize,
+}
+
+/// The edge–face intersection points of one side, per edge, as mappings onto the other side.
+pub type EdgeHits = HashMap<[u32; 2], Vec<(f64, Mapping)>>;
+
+/// Everything needed to sample one side.
+#[derive(Clone, Copy)]
+pub struct SideInput<'r, 'm, 'a> {
+    /// The own surface.
+    pub own: SideFrame<'m, 'a>,
+    /// The other surface.
+    pub other: SideFrame<'m, 'a>,
+    /// `M_l`.
+    pub region: &'r MappingRegion,
+    /// Intersection points on own edges.
+    pub hits: &'r EdgeHits,
+    /// Cast direction and stiffness.
+    pub frame: SurfaceFrame,
+    /// Ray length bound.
+    pub reach: f64,
+}
+
+impl SideInput<'_, '_, '_> {
+    /// Samples every vertex of `M_l` and the boundary point of every edge leaving it.
+    pub fn samples(&self) -> SideSamples {
+        let positions = self.own.mesh.positions();
+        let index = self.own.mesh.index();
+        let mut out = SideSamples {
+            vertices: vec![None; positions.len()],
+            ..Default::default()
+        };
+        for &v in &self.region.members {
+            if let Some(m) = self.region.mapped[v as usize] {
+                let s = self
+                    .frame
+                    .sample(positions[v as usize], self.own.normals[v as usize], m);
+                out.vertices[v as usize] = Some(s);
+            }
+        }
+        for &v in &self.region.members {
+            for &e in index.vertex_edges(v) {
+                let [a, b] = index.edges()[e as usize];
+                let w = if a == v { b } else { a };
+                if out.vertices[w as usize].is_some() {
+                    continue;
+                }
+                let (t, s, bisected) = self.boundary_sample(v, w);
+                out.bisected += bisected as usize;
+                out.boundary.insert((v, w), (t, s));
+            }
+        }
+        out
+    }
+
+    /// The boundary point of `M_l` on edge `i -> j` (`i` mapped, `j` not): the nearest
+    /// intersection point or quad crossing on the edge, else the last point whose ray hits.
+    fn boundary_sample(&self, i: u32, j: u32) -> (f64, SurfaceSample, bool) {
+        let key = [i.min(j), i.max(j)];
+        let from_i = |t: f64| if i < j { t } else { 1.0 - t };
+        let mut best: Option<(f64, Mapping)> = None;
+        let hits = self.hits.get(&key).into_iter().flatten().copied();
+        let walls = self
+            .region
+            .walls
+            .get(&key)
+            .into_iter()
+            .flatten()
+            .map(|w| (w.t, w.mapping));
+        for (t, m) in hits.chain(walls) {
+            let t = from_i(t);
+            if best.is_none_or(|(bt, _)| t < bt) {
+                best = Some((t, m));
+            }
+        }
+        let (pi, pj) = (self.point(i), self.point(j));
+        if let Some((t, m)) = best {
+            let p = pi + (pj - pi) * t;
+            return (
+                t,
+                self.frame.sample(p, self.normal_on_edge(i, j, t), m),
+                false,
+            );
+        }
+        let (t, m) = self.bisect(i, j);
+        let p = pi + (pj - pi) * t;
+        (
+            t,
+            self.frame.sample(p, self.normal_on_edge(i, j, t), m),
+            true,
+        )
+    }
+
+    fn bisect(&self, i: u32, j: u32) -> (f64, Mapping) {
+        let (pi, pj) = (self.point(i), self.point(j));
+        let mut last = self.region.mapped[i as usize].unwrap_or(Mapping {
+            target: pi,
+            target_normal: Vector3::zeros(),
+        });
+        let (mut lo, mut hi) = (0.0, 1.0);
+        for _ in 0..30 {
+            let mid = 0.5 * (lo + hi);
+            match map_point(
+                self.other,
+                &(pi + (pj - pi) * mid),
+                &self.frame.cast,
+                self.reach,
+            ) {
+                Some(m) => {
+                    lo = mid;
+                    last = m;
+                }
+                None => hi = mid,
+            }
+        }
+        (lo, last)
+    }
+
+    fn point(&self, v: u32) -> Point3<f64> {
+        self.own.mesh.positions()[v as usize]
+    }
+
+    /// Unit interpolated own normal at parameter `t` from `i` toward `j`.
+    pub fn normal_on_edge(&self, i: u32, j: u32, t: f64) -> Vector3<f64> {
+        let n = self.own.normals;
+        (n[i as usize] * (1.0 - t) + n[j as usize] * t)
+            .try_normalize(1e-12)
+            .unwrap_or(n[i as usize])
+    }
+}
+
+/// Area-weighted first and second moments of `δ·n'` over the projected mapping region of one
+/// side (faces with at least one mapped corner, clipped at the boundary points; linear data
+/// integrated exactly).
+pub fn depth_moments(triangles: &[[u32; 3]], samples: &SideSamples) -> [f64; 3] {
+    let mut m = [0.0; 3];
+    for t in triangles {
+        if !t.iter().any(|&v| samples.vertices[v as usize].is_some()) {
+            continue;
+        }
+        let mut poly: Vec<&SurfaceSample> = Vec::with_capacity(4);
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            let (sa, sb) = (&samples.vertices[a as usize], &samples.vertices[b as usize]);
+            if let Some(s) = sa {
+                poly.push(s);
+            }
+            let crossing = match (sa, sb) {
+                (Some(_), None) => samples.boundary.get(&(a, b)),
+                (None, Some(_)) => samples.boundary.get(&(b, a)),
+                _ => None,
+            };
+            if let Some((_, s)) = crossing {
+                poly.push(s);
+            }
+        }
+        for k in 1..poly.len().saturating_sub(1) {
+            let [a, b, c] = [poly[0], poly[k], poly[k + 1]];
+            let area = 0.5
+                * (b.surface_point - a.surface_point)
+                    .cross(&(c.surface_point - a.surface_point))
+                    .norm();
+            let [fa, fb, fc] = [a.depth, b.depth, c.depth];
+            m[0] += area;
+            m[1] += area * (fa + fb + fc) / 3.0;
+            m[2] += area / 6.0 * (fa * fa + fb * fb + fc * fc + fa * fb + fb * fc + fc * fa);
+        }
+    }
+    m
+}
+
+/// Eq. 4: `ε_c = m_S + τ σ_S` from the summed moments of both sides; also returns `(m, σ)`.
+pub fn threshold(moments: [[f64; 3]; 2], tau: f64) -> (f64, f64, f64) {
+    let area = moments[0][0] + moments[1][0];
+    if area.is_nan() || area <= 0.0 {
+        return (0.0, 0.0, 0.0);
+    }
+    let mean = (moments[0][1] + moments[1][1]) / area;
+    let var = ((moments[0][2] + moments[1][2]) / area - mean * mean).max(0.0);
+    let sigma = var.sqrt();
+    (mean + tau * sigma, mean, sigma)
+}
+
+/// An exact boundary point of a contact zone (Eq. 5), projected onto `S`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ZoneBoundaryPoint {
+    /// The zone vertex of the edge.
+    pub inside: u32,
+    /// The vertex outside the zone.
+    pub outside: u32,
+    /// Parameter from `inside` toward `outside`.
+    pub alpha: f64,
+    /// Its sample on `S` (`surface_point` is `p'_ij`).
+    pub sample: SurfaceSample,
+}
+
+/// The contact zone `C_l` of one side (Eq. 3 and the safeguard) and its exact boundary.
+#[derive(Clone, Debug, Default)]
+pub struct Zone {
+    /// Per mesh vertex: in `C_l`.
+    pub inside: Vec<bool>,
+    /// The zone's vertices, sorted.
+    pub vertices: Vec<u32>,
+    /// One point per edge leaving the zone.
+    pub boundary: Vec<ZoneBoundaryPoint>,
+}
+
+fn in_zone(s: &SurfaceSample, eps: f64) -> bool {
+    s.depth >= eps && s.safeguard >= SAFEGUARD_COS
+}
+
+/// Lines 23-27: the zone of one side for threshold `eps`.
+pub fn zone(input: &SideInput, samples: &SideSamples, eps: f64) -> Zone {
+    let index = input.own.mesh.index();
+    let n = samples.vertices.len();
+    let inside: Vec<bool> = samples
+        .vertices
+        .iter()
+        .map(|s| s.as_ref().is_some_and(|s| in_zone(s, eps)))
+        .collect();
+    let vertices: Vec<u32> = (0..n as u32).filter(|&v| inside[v as usize]).collect();
+    let mut boundary = Vec::new();
+    for &i in &vertices {
+        let Some(si) = samples.vertices[i as usize] else {
+            continue;
+        };
+        for &e in index.vertex_edges(i) {
+            let [a, b] = index.edges()[e as usize];
+            let j = if a == i { b } else { a };
+            if inside[j as usize] {
+                continue;
+            }
+            let (t_end, sj) = match (samples.vertices[j as usize], samples.boundary.get(&(i, j))) {
+                (Some(s), _) => (1.0, s),
+                (None, Some(&(t, s))) => (t, s),
+                (None, None) => continue,
+            };
+            let lambda = first_exit(&si, &sj, eps);
+            boundary.push(project(input, i, j, lambda * t_end, lambda, &si, &sj));
+        }
+    }
+    Zone {
+        inside,
+        vertices,
+        boundary,
+    }
+}
+
+/// Eq. 5: the smallest `λ ∈ (0, 1]` where the linearly interpolated criterion or safeguard
+/// stops holding between samples `a` (inside) and `b`.
+fn first_exit(a: &SurfaceSample, b: &SurfaceSample, eps: f64) -> f64 {
+    let (da, db) = (a.mapping.target - a.point, b.mapping.target - b.point);
+    let (na, nb) = (a.surface_normal, b.surface_normal);
+    let c0 = na.dot(&da) - eps;
+    let c1 = na.dot(&(db - da)) + (nb - na).dot(&da);
+    let c2 = (nb - na).dot(&(db - da));
+    let mut best = 1.0f64;
+    for r in quadratic_roots(c0, c1, c2) {
+        if r > 0.0 && r <= 1.0 {
+            best = best.min(r);
+        }
+    }
+    let (ga, gb) = (a.safeguard - SAFEGUARD_COS, b.safeguard - SAFEGUARD_COS);
+    if gb < 0.0 && ga >= 0.0 && ga != gb {
+        best = best.min(ga / (ga - gb));
+    }
+    best.clamp(0.0, 1.0)
+}
+
+/// Real roots of `c0 + c1 x + c2 x²` (numerically stable form).
+pub fn quadratic_roots(c0: f64, c1: f64, c2: f64) -> Vec<f64> {
+    let scale = c0.abs().max(c1.abs()).max(c2.abs());
+    if scale == 0.0 || !scale.is_finite() {
+        return Vec::new();
+    }
+    if c2.abs() <= 1e-14 * scale {
+        return if c1 != 0.0 {
+            vec![-c0 / c1]
+        } else {
+            Vec::new()
+        };
+    }
+    let disc = c1 * c1 - 4.0 * c2 * c0;
+    if disc < 0.0 {
+        return Vec::new();
+    }
+    let q = -0.5 * (c1 + c1.signum() * disc.sqrt());
+    let mut r = vec![q / c2];
+    if q != 0.0 {
+        r.push(c0 / q);
+    }
+    r
+}
+
+/// Places the boundary point at parameter `alpha` of edge `i -> j` and projects it onto `S`
+/// along the cast direction (falling back to interpolating the two samples when the ray does not
+/// land near them).
+fn project(
+    input: &SideInput,
+    i: u32,
+    j: u32,
+    alpha: f64,
+    lambda: f64,
+    si: &SurfaceSample,
+    sj: &SurfaceSample,
+) -> ZoneBoundaryPoint {
+    let positions = input.own.mesh.positions();
+    let (pi, pj) = (positions[i as usize], positions[j as usize]);
+    let point = pi + (pj - pi) * alpha;
+    let normal = input.normal_on_edge(i, j, alpha);
+    let lerp_target = si.mapping.target + (sj.mapping.target - si.mapping.target) * lambda;
+    let edge_len = (pj - pi).norm();
+    let cast = map_point(input.other, &point, &input.frame.cast, input.reach)
+        .filter(|m| (m.target - lerp_target).norm() <= edge_len.max(1e-12));
+    let mapping = if lambda >= 1.0 {
+        sj.mapping
+    } else {
+        cast.unwrap_or(Mapping {
+            target: lerp_target,
+            target_normal: (si.mapping.target_normal * (1.0 - lambda)
+                + sj.mapping.target_normal * lambda)
+                .try_normalize(1e-12)
+                .unwrap_or(si.mapping.target_normal),
+        })
+    };
+    ZoneBoundaryPoint {
+        inside: i,
+        outside: j,
+        alpha,
+        sample: input.frame.sample(point, normal, mapping),
+    }
+}
+
+/// The intersection points of `side`'s edges as mappings onto the other surface.
+pub fn edge_hits(
+    ints: &crate::intersect::Intersections,
+    side: crate::intersect::Side,
+    other: SideFrame,
+) -> EdgeHits {
+    let mut out: EdgeHits = HashMap::new();
+    for h in ints.hits.iter().filter(|h| h.side == side) {
+        let m = Mapping {
+            target: h.point,
+            target_normal: interpolated_normal(other, h.face, h.bary),
+        };
+        out.entry(h.edge).or_default().push((h.t, m));
+    }
+    out
+}

@@ -1,0 +1,481 @@
+//! The per-frame contact pass between separate objects (2021 Appendix B): every pair of bodies
+//! whose surfaces intersect gets a contact (Algorithm Part 1), then every body with at least
+//! one contact is deformed (Part 2). A frame without intersection costs one BVH refit and
+//! one overlap query per pair.
+//!
+//! Each body is one working region (the whole closed surface). Pairs run in parallel, then
+//! regions run in parallel; each unit of work is sequential and its output does not depend on
+//! the thread count.
+
+use crate::contact::{
+    resolve_pair, Contact, ContactError, ContactSide, DirectionMode, PairParams, SideFrame,
+};
+use crate::deform::{deform_region, DeformError, DeformParams, RegionFrame, WorkingRegion};
+use crate::intersect::{IntersectError, MeshIndex};
+use crate::mesh::operators::{mean_edge_length, vertex_normals, NormalWeighting};
+use crate::solve::SolveError;
+use nalgebra::{Point3, Vector3};
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// A body at rest: welded positions and triangles.
+pub type RestBody<'a> = (&'a [Point3<f64>], &'a [[u32; 3]]);
+
+/// Default `φ̄` as a fraction of the object's rest bounding-box diagonal.
+pub const DEFAULT_EXTENT_FACTOR: f64 = 0.5;
+
+/// Default number of passes per frame (see [`ContactPass::with_passes`]).
+pub const DEFAULT_PASSES: usize = 2;
+
+/// Contact parameters of one object (2021 Sec. 4.3, 4.4, 5, 7).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ObjectParams {
+    /// Pseudo-stiffness `k` (`k̄_A = k_A / (k_A + k_B)`); `f64::INFINITY` makes the object rigid.
+    pub stiffness: f64,
+    /// `τ` (Eq. 4) used when this object is the softer one of a pair.
+    pub tau: f64,
+    /// `φ̄`, extent of the deformation (scene units); `None`: half the rest bounding-box
+    /// diagonal of the object.
+    pub extent: Option<f64>,
+    /// `γ`: 0 no bulge, 1 exact volume, > 1 exaggeration.
+    pub gamma: f64,
+    /// `ω` of the procedural bulge map.
+    pub omega: f64,
+    /// Painted bulge map per welded vertex (multiplies `η`; negative values allowed).
+    pub painted: Option<Vec<f64>>,
+}
+
+impl Default for ObjectParams {
+    fn default() -> Self {
+        Self {
+            stiffness: 1.0,
+            tau: 0.0,
+            extent: None,
+            gamma: 1.0,
+            omega: 2.0,
+            painted: None,
+        }
+    }
+}
+
+/// Per-pair overrides.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PairOverride {
+    /// The two bodies (indices).
+    pub bodies: [usize; 2],
+    /// `τ` of this pair.
+    pub tau: Option<f64>,
+    /// Mapping direction, outward for `bodies[0]`.
+    pub direction: Option<Vector3<f64>>,
+}
+
+/// Why the pass could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum PassError {
+    /// A mesh is unusable for intersection queries.
+    #[error("body {body}: {source}")]
+    Intersect {
+        /// Body index.
+        body: usize,
+        /// Cause.
+        source: IntersectError,
+    },
+    /// A region could not be analysed.
+    #[error("body {body}: {source}")]
+    Solve {
+        /// Body index.
+        body: usize,
+        /// Cause.
+        source: SolveError,
+    },
+    /// A contact failed.
+    #[error("contact between bodies {a} and {b}: {source}")]
+    Contact {
+        /// First body.
+        a: usize,
+        /// Second body.
+        b: usize,
+        /// Cause.
+        source: ContactError,
+    },
+    /// A deformation failed.
+    #[error("deformation of body {body}: {source}")]
+    Deform {
+        /// Body.
+        body: usize,
+        /// Cause.
+        source: DeformError,
+    },
+    /// Inputs do not match the bodies.
+    #[error("{0}")]
+    Mismatch(String),
+}
+
+/// Precomputed per body.
+#[derive(Clone, Debug)]
+struct PassBody {
+    index: MeshIndex,
+    region: WorkingRegion,
+    triangles: Vec<[u32; 3]>,
+    deform: DeformParams,
+}
+
+/// The contact pass of a set of bodies, precomputed once (indices, regions, symbolic
+/// factorizations).
+#[derive(Clone, Debug)]
+pub struct ContactPass {
+    bodies: Vec<PassBody>,
+    params: Vec<ObjectParams>,
+    overrides: Vec<PairOverride>,
+    passes: usize,
+}
+
+/// Time per stage in seconds, summed over pairs and regions (the paper's Table 1 columns).
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct StageTimings {
+    /// Normals and BVH refits.
+    pub setup: f64,
+    /// i.: intersection detection and regions.
+    pub intersection: f64,
+    /// m.: direction and mapping.
+    pub mapping: f64,
+    /// c.: potential surface and contact zones.
+    pub zones: f64,
+    /// p.: parametrization (heat method).
+    pub parametrization: f64,
+    /// di.: direction field.
+    pub directions: f64,
+    /// g.: amplitude and slope diffusion.
+    pub fields: f64,
+    /// de.: profiles, bulge, volume, displacement.
+    pub deformation: f64,
+    /// Wall-clock time of the whole pass.
+    pub wall: f64,
+}
+
+/// Per-body diagnostics of one frame.
+#[derive(Clone, Debug, Default)]
+pub struct BodyDiagnostics {
+    /// `u` per welded vertex (1 where undeformed).
+    pub u: Vec<f64>,
+    /// Contact-zone flag per welded vertex.
+    pub zone: Vec<bool>,
+    /// Displacement direction `d` per welded vertex (zero where undeformed).
+    pub direction: Vec<Vector3<f64>>,
+    /// Bulge part of the displacement at `γ = 1` per welded vertex.
+    pub bulge: Vec<Vector3<f64>>,
+    /// The region's statistics (when deformed).
+    pub stats: Option<crate::deform::DeformStats>,
+}
+
+/// Summary of one contact.
+#[derive(Clone, Debug)]
+pub struct ContactSummary {
+    /// The two bodies.
+    pub bodies: [usize; 2],
+    /// The contact.
+    pub contact: Contact,
+}
+
+/// Output of one frame.
+#[derive(Clone, Debug)]
+pub struct PassOutput {
+    /// Output positions per body (welded vertices).
+    pub positions: Vec<Vec<Point3<f64>>>,
+    /// Diagnostics per body.
+    pub diagnostics: Vec<BodyDiagnostics>,
+    /// Contacts found.
+    pub contacts: Vec<ContactSummary>,
+    /// Stage timings.
+    pub timings: StageTimings,
+    /// Contacts resolved by passes after the first.
+    pub later_contacts: usize,
+}
+
+fn add_timings(a: &StageTimings, b: &StageTimings) -> StageTimings {
+    StageTimings {
+        setup: a.setup + b.setup,
+        intersection: a.intersection + b.intersection,
+        mapping: a.mapping + b.mapping,
+        zones: a.zones + b.zones,
+        parametrization: a.parametrization + b.parametrization,
+        directions: a.directions + b.directions,
+        fields: a.fields + b.fields,
+        deformation: a.deformation + b.deformation,
+        wall: a.wall + b.wall,
+    }
+}
+
+impl ContactPass {
+    /// Precomputes the pass for bodies given by rest positions and triangles (welded).
+    pub fn new(
+        rest: &[RestBody<'_>],
+        params: Vec<ObjectParams>,
+        overrides: Vec<PairOverride>,
+    ) -> Result<Self, PassError> {
+        if params.len() != rest.len() {
+            return Err(PassError::Mismatch(format!(
+                "{} bodies, {} parameter sets",
+                rest.len(),
+                params.len()
+            )));
+        }
+        let bodies = rest
+            .iter()
+            .zip(&params)
+            .enumerate()
+            .map(|(body, ((pos, tris), p))| {
+                let index = MeshIndex::new(pos, tris)
+                    .map_err(|source| PassError::Intersect { body, source })?;
+                let region = WorkingRegion::whole(tris, pos.len())
+                    .map_err(|source| PassError::Solve { body, source })?;
+                let extent = p
+                    .extent
+                    .unwrap_or_else(|| DEFAULT_EXTENT_FACTOR * crate::mesh::bbox_diagonal(pos));
+                let deform = DeformParams {
+                    extent,
+                    gamma: p.gamma,
+                    omega: p.omega,
+                    ..DeformParams::default()
+                };
+                Ok(PassBody {
+                    index,
+                    region,
+                    triangles: tris.to_vec(),
+                    deform,
+                })
+            })
+            .collect::<Result<Vec<_>, PassError>>()?;
+        Ok(Self {
+            bodies,
+            params,
+            overrides,
+            passes: DEFAULT_PASSES,
+        })
+    }
+
+    /// Number of bodies.
+    pub fn body_count(&self) -> usize {
+        self.bodies.len()
+    }
+
+    /// The parameters of pair `(a, b)`.
+    pub fn pair_params(&self, a: usize, b: usize) -> PairParams {
+        let (pa, pb) = (&self.params[a], &self.params[b]);
+        let (ka, kb) = (pa.stiffness, pb.stiffness);
+        let stiffness_a = if ka.is_infinite() && kb.is_infinite() {
+            0.5
+        } else if ka.is_infinite() {
+            1.0
+        } else if kb.is_infinite() {
+            0.0
+        } else if ka + kb > 0.0 {
+            ka / (ka + kb)
+        } else {
+            0.5
+        };
+        let tau = if ka < kb {
+            pa.tau
+        } else if kb < ka {
+            pb.tau
+        } else {
+            0.5 * (pa.tau + pb.tau)
+        };
+        let mut pp = PairParams {
+            stiffness_a,
+            tau,
+            direction: DirectionMode::Automatic,
+        };
+        for o in &self.overrides {
+            let swapped = o.bodies == [b, a];
+            if o.bodies == [a, b] || swapped {
+                if let Some(t) = o.tau {
+                    pp.tau = t;
+                }
+                if let Some(d) = o.direction {
+                    pp.direction = DirectionMode::Fixed(if swapped { -d } else { d });
+                }
+            }
+        }
+        pp
+    }
+
+    /// Sets how many times the pass is applied per frame (at least 1; default
+    /// [`DEFAULT_PASSES`]). The paper applies it once (`1` reproduces it exactly); a second pass resolves intersections created by the first one's bulges (next to a
+    /// stiffer object with a small contact zone). Every pass preserves the volume exactly.
+    pub fn with_passes(mut self, passes: usize) -> Self {
+        self.passes = passes.max(1);
+        self
+    }
+
+    /// Runs the pass on one frame (welded positions per body), [`ContactPass::with_passes`]
+    /// times (stopping early when nothing intersects any more). Diagnostics and contacts are
+    /// those of the first pass; timings are summed.
+    pub fn run(&self, positions: &[Vec<Point3<f64>>]) -> Result<PassOutput, PassError> {
+        let mut out = self.run_once(positions)?;
+        for _ in 1..self.passes {
+            let next = self.run_once(&out.positions)?;
+            if next.contacts.is_empty() {
+                break;
+            }
+            out.timings = add_timings(&out.timings, &next.timings);
+            out.positions = next.positions;
+            out.later_contacts += next.contacts.len();
+        }
+        Ok(out)
+    }
+
+    fn run_once(&self, positions: &[Vec<Point3<f64>>]) -> Result<PassOutput, PassError> {
+        let wall = Instant::now();
+        if positions.len() != self.bodies.len() {
+            return Err(PassError::Mismatch(format!(
+                "{} bodies, {} position sets",
+                self.bodies.len(),
+                positions.len()
+            )));
+        }
+        let normals: Vec<Vec<Vector3<f64>>> = positions
+            .par_iter()
+            .zip(&self.bodies)
+            .map(|(p, b)| vertex_normals(p, &b.triangles, NormalWeighting::Area))
+            .collect();
+        let posed = positions
+            .iter()
+            .zip(&self.bodies)
+            .enumerate()
+            .map(|(body, (p, b))| {
+                b.index
+                    .pose(p)
+                    .map_err(|source| PassError::Intersect { body, source })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let mut timings = StageTimings {
+            setup: wall.elapsed().as_secs_f64(),
+            ..Default::default()
+        };
+        let pairs: Vec<(usize, usize)> = (0..posed.len())
+            .flat_map(|a| (a + 1..posed.len()).map(move |b| (a, b)))
+            .filter(|&(a, b)| boxes_overlap(&posed[a], &posed[b]))
+            .collect();
+        let contacts: Vec<ContactSummary> = pairs
+            .par_iter()
+            .map(|&(a, b)| {
+                let fa = SideFrame {
+                    mesh: &posed[a],
+                    normals: &normals[a],
+                };
+                let fb = SideFrame {
+                    mesh: &posed[b],
+                    normals: &normals[b],
+                };
+                resolve_pair(fa, fb, &self.pair_params(a, b))
+                    .map(|c| {
+                        c.map(|contact| ContactSummary {
+                            bodies: [a, b],
+                            contact,
+                        })
+                    })
+                    .map_err(|source| PassError::Contact { a, b, source })
+            })
+            .collect::<Result<Vec<_>, _>>()?
+            .into_iter()
+            .flatten()
+            .collect();
+        for c in &contacts {
+            timings.intersection += c.contact.timings.intersection;
+            timings.mapping += c.contact.timings.mapping;
+            timings.zones += c.contact.timings.zones;
+        }
+        let results: Vec<_> = (0..self.bodies.len())
+            .into_par_iter()
+            .map(|body| self.deform_body(body, positions, &normals, &contacts))
+            .collect::<Result<Vec<_>, _>>()?;
+        let mut out = PassOutput {
+            positions: Vec::new(),
+            diagnostics: Vec::new(),
+            contacts,
+            timings,
+            later_contacts: 0,
+        };
+        for (body, r) in results.into_iter().enumerate() {
+            match r {
+                Some(d) => {
+                    out.timings.parametrization += d.timings.parametrization;
+                    out.timings.directions += d.timings.directions;
+                    out.timings.fields += d.timings.fields;
+                    out.timings.deformation += d.timings.deformation;
+                    out.positions.push(d.positions);
+                    out.diagnostics.push(BodyDiagnostics {
+                        u: d.u,
+                        zone: d.zone,
+                        direction: d.direction,
+                        bulge: d.bulge,
+                        stats: Some(d.stats),
+                    });
+                }
+                None => {
+                    let n = positions[body].len();
+                    out.positions.push(positions[body].clone());
+                    out.diagnostics.push(BodyDiagnostics {
+                        u: vec![1.0; n],
+                        zone: vec![false; n],
+                        direction: vec![Vector3::zeros(); n],
+                        bulge: vec![Vector3::zeros(); n],
+                        stats: None,
+                    });
+                }
+            }
+        }
+        out.timings.wall = wall.elapsed().as_secs_f64();
+        Ok(out)
+    }
+
+    fn deform_body(
+        &self,
+        body: usize,
+        positions: &[Vec<Point3<f64>>],
+        normals: &[Vec<Vector3<f64>>],
+        contacts: &[ContactSummary],
+    ) -> Result<Option<crate::deform::RegionDeformation>, PassError> {
+        let sides: Vec<&ContactSide> = contacts
+            .iter()
+            .flat_map(|c| {
+                c.bodies
+                    .iter()
+                    .enumerate()
+                    .filter(move |(_, &b)| b == body)
+                    .map(move |(k, _)| &c.contact.sides[k])
+            })
+            .filter(|s| s.stiffness < 1.0 && !s.zone.vertices.is_empty())
+            .collect();
+        if sides.is_empty() {
+            return Ok(None);
+        }
+        let b = &self.bodies[body];
+        let frame = RegionFrame {
+            positions: &positions[body],
+            normals: &normals[body],
+            triangles: &b.triangles,
+            contacts: &sides,
+            painted: self.params[body].painted.as_deref(),
+        };
+        deform_region(&b.region, &frame, &b.deform)
+            .map(Some)
+            .map_err(|source| PassError::Deform { body, source })
+    }
+
+    /// The rest mean edge length of each body (`h_rest` of `MEASURING.md`).
+    pub fn rest_edge_lengths(&self, rest: &[Vec<Point3<f64>>]) -> Vec<f64> {
+        rest.iter()
+            .zip(&self.bodies)
+            .map(|(p, b)| mean_edge_length(p, &b.triangles))
+            .collect()
+    }
+}
+
+fn boxes_overlap(a: &crate::intersect::PosedMesh, b: &crate::intersect::PosedMesh) -> bool {
+    match (a.bvh().root_box(), b.bvh().root_box()) {
+        (Some(x), Some(y)) => x.overlaps(&y),
+        _ => false,
+    }
+}

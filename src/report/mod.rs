@@ -1,0 +1,3 @@
+//! Measurements of results (`../shared/design/MEASURING.md`): error metrics per frame.
+
+pub mod metrics;
