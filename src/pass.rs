@@ -164,6 +164,10 @@ pub struct BodyDiagnostics {
     pub direction: Vec<Vector3<f64>>,
     /// Bulge part of the displacement at `γ = 1` per welded vertex.
     pub bulge: Vec<Vector3<f64>>,
+    /// Amplitude field `a` per welded vertex.
+    pub amplitude: Vec<f64>,
+    /// Slope field `s` per welded vertex.
+    pub slope: Vec<f64>,
     /// The region's statistics (when deformed).
     pub stats: Option<crate::deform::DeformStats>,
 }
@@ -360,6 +364,14 @@ impl ContactPass {
         let contacts: Vec<ContactSummary> = pairs
             .par_iter()
             .map(|&(a, b)| {
+                // Geometric order, not body order: the same two surfaces give the same bits
+                // whichever body comes first (the exact predicates break ties by perturbing
+                // the second surface).
+                let (a, b) = if canonical_key(&positions[b]) < canonical_key(&positions[a]) {
+                    (b, a)
+                } else {
+                    (a, b)
+                };
                 let fa = SideFrame {
                     mesh: &posed[a],
                     normals: &normals[a],
@@ -410,6 +422,8 @@ impl ContactPass {
                         zone: d.zone,
                         direction: d.direction,
                         bulge: d.bulge,
+                        amplitude: d.amplitude,
+                        slope: d.slope,
                         stats: Some(d.stats),
                     });
                 }
@@ -421,6 +435,8 @@ impl ContactPass {
                         zone: vec![false; n],
                         direction: vec![Vector3::zeros(); n],
                         bulge: vec![Vector3::zeros(); n],
+                        amplitude: vec![0.0; n],
+                        slope: vec![0.0; n],
                         stats: None,
                     });
                 }
@@ -471,6 +487,17 @@ impl ContactPass {
             .map(|(p, b)| mean_edge_length(p, &b.triangles))
             .collect()
     }
+}
+
+/// An order on surfaces that does not depend on their index: vertex count, then the bits of
+/// the first positions.
+fn canonical_key(positions: &[Point3<f64>]) -> (usize, Vec<[u64; 3]>) {
+    let head = positions
+        .iter()
+        .take(16)
+        .map(|p| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()])
+        .collect();
+    (positions.len(), head)
 }
 
 fn boxes_overlap(a: &crate::intersect::PosedMesh, b: &crate::intersect::PosedMesh) -> bool {

@@ -152,7 +152,7 @@ pub fn resolve_pair(
     }
     let start = Instant::now();
     let ints = Intersections::between(a.mesh, b.mesh);
-    if ints.is_empty() {
+    if ints.is_empty() || curve_length(&ints) <= TOUCH_TOLERANCE * reach_of(a.mesh, b.mesh) {
         return Ok(None);
     }
     let regions = [
@@ -257,6 +257,19 @@ fn pair_direction(
             Ok(direction::automatic_direction(sa.as_ref(), sb.as_ref()))
         }
     }
+}
+
+/// Intersection curves shorter than this fraction of the scene size are a touch (surfaces
+/// meeting at a point or along a degenerate curve, e.g. two vertices placed on the same point
+/// of `S` by a previous pass): nothing to resolve.
+pub const TOUCH_TOLERANCE: f64 = 1e-9;
+
+/// Total length of the intersection curves.
+fn curve_length(ints: &Intersections) -> f64 {
+    ints.segments
+        .iter()
+        .map(|s| (ints.hits[s.hits[1] as usize].point - ints.hits[s.hits[0] as usize].point).norm())
+        .sum()
 }
 
 /// The diagonal of the box around both surfaces.

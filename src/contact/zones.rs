@@ -267,7 +267,12 @@ pub fn depth_moments(triangles: &[[u32; 3]], samples: &SideSamples) -> [f64; 3] 
 }
 
 /// Eq. 4: `ε_c = m_S + τ σ_S` from the summed moments of both sides; also returns `(m, σ)`.
-pub fn threshold(moments: [[f64; 3]; 2], tau: f64) -> (f64, f64, f64) {
+/// The two sides are summed in a canonical order, so swapping them gives the same bits.
+pub fn threshold(mut moments: [[f64; 3]; 2], tau: f64) -> (f64, f64, f64) {
+    let key = |m: &[f64; 3]| m.map(f64::to_bits);
+    if key(&moments[1]) < key(&moments[0]) {
+        moments.swap(0, 1);
+    }
     let area = moments[0][0] + moments[1][0];
     if area.is_nan() || area <= 0.0 {
         return (0.0, 0.0, 0.0);

@@ -178,6 +178,10 @@ pub struct RegionDeformation {
     pub zone: Vec<bool>,
     /// Displacement direction `d` per mesh vertex (zero where not displaced).
     pub direction: Vec<Vector3<f64>>,
+    /// Diffused amplitude `a` per mesh vertex (0 outside the region).
+    pub amplitude: Vec<f64>,
+    /// Diffused slope `s` per mesh vertex (0 outside the region).
+    pub slope: Vec<f64>,
     /// The bulge part of the displacement at `γ = 1`, `h_v N_2(t) η d` (the output is
     /// `P + γ ×` this, `P` the displacement without bulge).
     pub bulge: Vec<Vector3<f64>>,
@@ -268,12 +272,17 @@ pub fn deform_region(
     let mut out = displace(wr, frame, params, &shape, &mut stats)?;
     let t_def = start.elapsed().as_secs_f64();
 
-    let mut u_mesh = vec![1.0; frame.positions.len()];
-    let mut zone = vec![false; frame.positions.len()];
+    let n = frame.positions.len();
+    let (mut u_mesh, mut zone) = (vec![1.0; n], vec![false; n]);
+    let (mut amp, mut slope) = (vec![0.0; n], vec![0.0; n]);
     for (l, &v) in region.vertices.iter().enumerate() {
         u_mesh[v as usize] = u[l];
         zone[v as usize] = zone_local[l];
+        amp[v as usize] = a[l];
+        slope[v as usize] = s[l];
     }
+    out.amplitude = amp;
+    out.slope = slope;
     stats.zone_vertices = zone_local.iter().filter(|&&z| z).count();
     stats.boundary_points = points.len();
     out.u = u_mesh;
@@ -495,9 +504,22 @@ fn blend_direction(
     }
 }
 
+/// Weight of the global slope in each point's estimate, relative to the mean denominator
+/// (see [`slope_estimates`]).
+pub const SLOPE_REGULARIZATION: f64 = 0.25;
+
 /// Slope estimates at the cut points (Sec. 5.3 with the corrected anchor of `PIPELINE.md`):
-/// `s = [(d·n')((b - p_j)·n' + a_j d·n') + a_j (d·m)²] / [u_j ((d·n')² + (d·m)²)]`.
-/// Ill-posed estimates (denominator below 1e-9) take the mean of the others.
+/// the least-squares slope of one edge is `s_ij = num / den` with
+/// `num = (d·n')((b - p_j)·n' + a_j d·n') + a_j (d·m)²` and
+/// `den = u_j ((d·n')² + (d·m)²)`.
+///
+/// `den → 0` as the boundary point nears its outside vertex (`u_j → 0`), where `num / den`
+/// becomes noise that changes quickly as `∂C` slides, a pop in time. Instead of dropping those
+/// edges (which also pops), each estimate is regularized toward the least-squares slope of
+/// the whole boundary, `s̄ = Σ num / Σ den`:
+/// `s_ij = (num + w s̄) / (den + w)`, `w = SLOPE_REGULARIZATION × mean(den)`. This is
+/// continuous in every input. Estimates with `den < w` are counted in
+/// [`DeformStats::dropped_slopes`].
 fn slope_estimates(
     points: &[CutPoint],
     pos: &[Point3<f64>],
@@ -506,28 +528,48 @@ fn slope_estimates(
     a: &[f64],
     stats: &mut DeformStats,
 ) -> Vec<f64> {
-    let raw: Vec<Option<f64>> = points
+    let terms: Vec<(f64, f64)> = points
         .iter()
         .map(|p| {
             let (i, j) = (p.inside as usize, p.outside as usize);
             let n = p.sample.surface_normal;
-            let e = (pos[j] - pos[i]).try_normalize(1e-300)?;
+            let Some(e) = (pos[j] - pos[i]).try_normalize(1e-300) else {
+                return (0.0, 0.0);
+            };
             let dij = d[i];
-            let m = (e - dij * e.dot(&dij)).try_normalize(1e-12)?;
+            let m = (e - dij * e.dot(&dij))
+                .try_normalize(1e-12)
+                .unwrap_or_else(Vector3::zeros);
             let (dn, dm) = (d[j].dot(&n), d[j].dot(&m));
             let den = u[j] * (dn * dn + dm * dm);
             let num = dn * ((p.sample.surface_point - pos[j]).dot(&n) + a[j] * dn) + a[j] * dm * dm;
-            (den > 1e-9 && num.is_finite()).then(|| num / den)
+            if num.is_finite() && den.is_finite() && den >= 0.0 {
+                (num, den)
+            } else {
+                (0.0, 0.0)
+            }
         })
         .collect();
-    let valid: Vec<f64> = raw.iter().flatten().copied().collect();
-    let mean = if valid.is_empty() {
-        0.0
+    let (sum_num, sum_den) = terms
+        .iter()
+        .fold((0.0, 0.0), |(a, b), (n, d)| (a + n, b + d));
+    let global = if sum_den > 0.0 {
+        sum_num / sum_den
     } else {
-        valid.iter().sum::<f64>() / valid.len() as f64
+        0.0
     };
-    stats.dropped_slopes = raw.len() - valid.len();
-    raw.into_iter().map(|s| s.unwrap_or(mean)).collect()
+    let w = SLOPE_REGULARIZATION * sum_den / terms.len().max(1) as f64;
+    stats.dropped_slopes = terms.iter().filter(|(_, den)| *den < w).count();
+    terms
+        .iter()
+        .map(|&(num, den)| {
+            if den + w > 0.0 {
+                (num + w * global) / (den + w)
+            } else {
+                global
+            }
+        })
+        .collect()
 }
 
 /// The per-vertex fields the displacement needs (local indices).
@@ -599,6 +641,8 @@ fn displace(
         u: Vec::new(),
         zone: Vec::new(),
         direction,
+        amplitude: Vec::new(),
+        slope: Vec::new(),
         bulge: bulge_dir.iter().map(|q| q * h).collect(),
         stats: DeformStats::default(),
         timings: DeformTimings::default(),

@@ -5,7 +5,7 @@
 
 use contact_skin::frames::{self, Precomputed};
 use contact_skin::mesh::operators::{mean_edge_length, vertex_normals, NormalWeighting};
-use contact_skin::pass::{ContactPass, ObjectParams, PairOverride, PassOutput};
+use contact_skin::pass::{ContactPass, ObjectParams, PairOverride, PassOutput, RestBody};
 use contact_skin::report::metrics;
 use contact_skin::rig::{self, Rig};
 use contact_skin::skinning::Method;
@@ -26,6 +26,18 @@ pub fn load(name: &str, frames: usize) -> Loaded {
         .join("rigs")
         .join(format!("{name}.glb"));
     let rig = rig::load(&path).expect("committed rig loads");
+    prepare(rig, frames)
+}
+
+/// A scene generated in memory at another resolution.
+pub fn load_generated(name: &str, resolution: u32, frames: usize) -> Loaded {
+    let scene = contact_skin::scenes::Scene::from_name(name).expect("known scene");
+    let bytes = contact_skin::scenes::build_glb(scene, resolution).expect("scene builds");
+    let rig = rig::load_from_bytes(Path::new(name), &bytes).expect("generated rig loads");
+    prepare(rig, frames)
+}
+
+fn prepare(rig: Rig, frames: usize) -> Loaded {
     let pre = Precomputed::new(&rig, Method::Lbs);
     let times = frames::sample_times(&rig, Some(0), Some(frames));
     let triangles: Vec<Vec<[u32; 3]>> = pre.welded.iter().map(|w| w.triangles.clone()).collect();
@@ -67,12 +79,24 @@ impl Loaded {
 
     pub fn pass(&self, params: Vec<ObjectParams>, overrides: Vec<PairOverride>) -> ContactPass {
         let rest = welded_positions(&self.rig, &self.pre, 0.0, None);
-        let bodies: Vec<(&[Point3<f64>], &[[u32; 3]])> = rest
+        let bodies: Vec<RestBody> = rest
             .iter()
             .zip(&self.triangles)
             .map(|(p, t)| (p.as_slice(), t.as_slice()))
             .collect();
         ContactPass::new(&bodies, params, overrides).expect("pass precomputes")
+    }
+
+    /// The pass with the bodies in reverse order.
+    pub fn swapped_pass(&self, params: Vec<ObjectParams>) -> ContactPass {
+        let rest = welded_positions(&self.rig, &self.pre, 0.0, None);
+        let bodies: Vec<RestBody> = rest
+            .iter()
+            .zip(&self.triangles)
+            .rev()
+            .map(|(p, t)| (p.as_slice(), t.as_slice()))
+            .collect();
+        ContactPass::new(&bodies, params, vec![]).expect("pass precomputes")
     }
 
     /// Residual penetration of a frame (all bodies together).
@@ -82,7 +106,7 @@ impl Loaded {
             .zip(&self.triangles)
             .map(|(p, t)| vertex_normals(p, t, NormalWeighting::Area))
             .collect();
-        let bodies: Vec<(&[Point3<f64>], &[[u32; 3]], &[Vector3<f64>])> = positions
+        let bodies: Vec<metrics::Body> = positions
             .iter()
             .zip(&self.triangles)
             .zip(&normals)
@@ -96,5 +120,61 @@ impl Loaded {
         let v_in = contact_skin::mesh::signed_volume(&input[b], &self.triangles[b]);
         let v_out = contact_skin::mesh::signed_volume(&out.positions[b], &self.triangles[b]);
         metrics::volume_error(v_in, v_out)
+    }
+}
+
+impl Loaded {
+    /// Largest distance from a zone vertex of one side (after deformation) to the other
+    /// side's deformed faces touching its zone, both ways, for the contact `c` of `out`.
+    pub fn zone_gap(&self, out: &PassOutput, c: usize) -> f64 {
+        let summary = &out.contacts[c];
+        let [a, b] = summary.bodies;
+        let mut worst: f64 = 0.0;
+        for (own, other, ko, kx) in [(a, b, 0, 1), (b, a, 1, 0)] {
+            let zo = &summary.contact.sides[ko].zone;
+            let zx = &summary.contact.sides[kx].zone;
+            let points: Vec<Point3<f64>> = zo
+                .vertices
+                .iter()
+                .map(|&v| out.positions[own][v as usize])
+                .collect();
+            let faces: Vec<u32> = self.triangles[other]
+                .iter()
+                .enumerate()
+                .filter(|(_, t)| t.iter().any(|&v| zx.inside[v as usize]))
+                .map(|(f, _)| f as u32)
+                .collect();
+            if points.is_empty() || faces.is_empty() {
+                continue;
+            }
+            let d = metrics::surface_distance(
+                &points,
+                &out.positions[other],
+                &self.triangles[other],
+                &faces,
+            );
+            worst = d.into_iter().fold(worst, f64::max);
+        }
+        worst
+    }
+}
+
+/// Object parameters with stiffness `k[i]` (last value repeated) and one `τ`.
+pub fn object_params(n: usize, k: &[f64], tau: f64) -> Vec<ObjectParams> {
+    (0..n)
+        .map(|i| ObjectParams {
+            stiffness: k[i.min(k.len() - 1)],
+            tau,
+            ..Default::default()
+        })
+        .collect()
+}
+
+/// The pseudo-stiffness giving body 0 the relative stiffness `kbar` against a body of `k = 1`.
+pub fn stiffness_for(kbar: f64) -> f64 {
+    if kbar >= 1.0 {
+        f64::INFINITY
+    } else {
+        kbar / (1.0 - kbar)
     }
 }
