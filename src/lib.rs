@@ -11,6 +11,11 @@
 //! | glTF reading, skeleton, animation sampling | [`rig`] |
 //! | welded topology of the skinned meshes, discrete operators | [`mesh`] |
 //! | mesh-mesh intersections, farthest-hit rays, silhouettes | [`intersect`] |
+//! | contact surface: direction, mapping, potential surface, zones (2021 Sec. 4) | [`contact`] |
+//! | deformation: parametrization, directions, profile, volume, bulge (Sec. 5, 7) | [`deform`] |
+//! | the per-frame contact pass over a set of bodies (Appendix B) | [`pass`] |
+//! | contact parameters per rig (TOML) | [`config`] |
+//! | error metrics of `MEASURING.md` | [`report`] |
 //! | min-cut / max-flow (Boykov-Kolmogorov) | [`mincut`] |
 //! | sparse SPD Cholesky with symbolic reuse | [`solve`] |
 //! | heat method with a source curve, harmonic diffusion on cut meshes | [`heat`] |
@@ -22,6 +27,7 @@
 //! Everything that does not depend on the pose is precomputed once per rig
 //! ([`frames::Precomputed`]); every frame is a pure function of the pose.
 
+pub mod config;
 pub mod contact;
 pub mod deform;
 pub mod frames;

@@ -65,8 +65,57 @@ pub struct PairOverride {
     pub bodies: [usize; 2],
     /// `τ` of this pair.
     pub tau: Option<f64>,
-    /// Mapping direction, outward for `bodies[0]`.
-    pub direction: Option<Vector3<f64>>,
+    /// Mapping direction, outward for `bodies[0]` (constant or keyframed).
+    pub direction: Option<DirectionTrack>,
+}
+
+/// A user mapping direction over time (2021 Sec. 4.1: "specify it manually and even key-frame
+/// it"): keys `(time, direction)`, normalized linear interpolation between them, held
+/// constant before the first and after the last.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DirectionTrack {
+    keys: Vec<(f64, Vector3<f64>)>,
+}
+
+impl DirectionTrack {
+    /// A constant direction.
+    pub fn constant(direction: Vector3<f64>) -> Self {
+        Self {
+            keys: vec![(0.0, direction)],
+        }
+    }
+
+    /// Keyframes; `None` when empty, when a time or direction is not finite or a direction is
+    /// zero. Keys are sorted by time.
+    pub fn keyed(mut keys: Vec<(f64, Vector3<f64>)>) -> Option<Self> {
+        let valid = |(t, d): &(f64, Vector3<f64>)| {
+            t.is_finite() && d.iter().all(|x| x.is_finite()) && d.norm() > 0.0
+        };
+        if keys.is_empty() || !keys.iter().all(valid) {
+            return None;
+        }
+        keys.sort_by(|a, b| a.0.total_cmp(&b.0));
+        Some(Self { keys })
+    }
+
+    /// The direction at time `t` (unit unless two consecutive keys are opposite, where the
+    /// earlier key is used).
+    pub fn at(&self, t: f64) -> Vector3<f64> {
+        let k = &self.keys;
+        let first = k[0].1.normalize();
+        if k.len() == 1 || t <= k[0].0 {
+            return first;
+        }
+        for w in k.windows(2) {
+            let ((t0, d0), (t1, d1)) = (w[0], w[1]);
+            if t <= t1 {
+                let s = if t1 > t0 { (t - t0) / (t1 - t0) } else { 1.0 };
+                let (d0, d1) = (d0.normalize(), d1.normalize());
+                return (d0 * (1.0 - s) + d1 * s).try_normalize(1e-12).unwrap_or(d0);
+            }
+        }
+        k[k.len() - 1].1.normalize()
+    }
 }
 
 /// Why the pass could not run.
@@ -263,8 +312,8 @@ impl ContactPass {
         self.bodies.len()
     }
 
-    /// The parameters of pair `(a, b)`.
-    pub fn pair_params(&self, a: usize, b: usize) -> PairParams {
+    /// The parameters of pair `(a, b)` at animation time `time`.
+    pub fn pair_params(&self, a: usize, b: usize, time: f64) -> PairParams {
         let (pa, pb) = (&self.params[a], &self.params[b]);
         let (ka, kb) = (pa.stiffness, pb.stiffness);
         let stiffness_a = if ka.is_infinite() && kb.is_infinite() {
@@ -296,7 +345,8 @@ impl ContactPass {
                 if let Some(t) = o.tau {
                     pp.tau = t;
                 }
-                if let Some(d) = o.direction {
+                if let Some(track) = &o.direction {
+                    let d = track.at(time);
                     pp.direction = DirectionMode::Fixed(if swapped { -d } else { d });
                 }
             }
@@ -316,9 +366,18 @@ impl ContactPass {
     /// times (stopping early when nothing intersects any more). Diagnostics and contacts are
     /// those of the first pass; timings are summed.
     pub fn run(&self, positions: &[Vec<Point3<f64>>]) -> Result<PassOutput, PassError> {
-        let mut out = self.run_once(positions)?;
+        self.run_at(positions, 0.0)
+    }
+
+    /// [`ContactPass::run`] at animation time `time` (for keyframed directions).
+    pub fn run_at(
+        &self,
+        positions: &[Vec<Point3<f64>>],
+        time: f64,
+    ) -> Result<PassOutput, PassError> {
+        let mut out = self.run_once(positions, time)?;
         for _ in 1..self.passes {
-            let next = self.run_once(&out.positions)?;
+            let next = self.run_once(&out.positions, time)?;
             if next.contacts.is_empty() {
                 break;
             }
@@ -329,7 +388,7 @@ impl ContactPass {
         Ok(out)
     }
 
-    fn run_once(&self, positions: &[Vec<Point3<f64>>]) -> Result<PassOutput, PassError> {
+    fn run_once(&self, positions: &[Vec<Point3<f64>>], time: f64) -> Result<PassOutput, PassError> {
         let wall = Instant::now();
         if positions.len() != self.bodies.len() {
             return Err(PassError::Mismatch(format!(
@@ -380,7 +439,7 @@ impl ContactPass {
                     mesh: &posed[b],
                     normals: &normals[b],
                 };
-                resolve_pair(fa, fb, &self.pair_params(a, b))
+                resolve_pair(fa, fb, &self.pair_params(a, b, time))
                     .map(|c| {
                         c.map(|contact| ContactSummary {
                             bodies: [a, b],

@@ -1,0 +1,1 @@
+//! (in progress) Rig configuration of the contact pass.
