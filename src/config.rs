@@ -1,1 +1,891 @@
-//! (in progress) Rig configuration of the contact pass.
+//! The contact configuration of a rig: a TOML file giving the parameters of the contact pass
+//! ([`crate::pass`]) per object and per pair.
+//!
+//! ```toml
+//! passes = 2                      # optional, ContactPass::with_passes
+//! [defaults]                      # optional, for every object
+//! stiffness = 1.0                 # pseudo-stiffness k, or "rigid"
+//! tau = 0.0
+//! extent = 0.3                    # φ̄ in scene units; or extent_factor = 0.5 (× rest bbox diagonal)
+//! gamma = 1.0
+//! omega = 2.0
+//! [[object]]
+//! name = "ball"                   # a body name, or its index (integer or string)
+//! stiffness = 0.5
+//! bulge_map = "ball_bulge.txt"    # or "attribute:_BULGE"
+//! [[pair]]
+//! objects = ["ball", "thumb"]
+//! tau = 0.6
+//! direction = [0.0, 1.0, 0.0]     # or direction_keys = [[t, x, y, z], ...]
+//! ```
+//!
+//! [`ContactConfig::load`] parses and checks every number (no rig needed);
+//! [`ContactConfig::resolve`] maps names to bodies and reads the painted bulge maps, giving the
+//! inputs of [`crate::pass::ContactPass::new`]. Every error is a [`ConfigError`] naming the file
+//! and the field (`object[1].stiffness`, `pair[0].direction_keys[2]`, ...).
+
+use crate::mesh::{bbox_diagonal, WeldedMesh};
+use crate::pass::{DirectionTrack, ObjectParams, PairOverride, DEFAULT_PASSES};
+use crate::rig::{Confinement, Rig};
+use nalgebra::Vector3;
+use serde::de::{self, Deserializer, Visitor};
+use serde::Deserialize;
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+/// Suffix of a rig's own configuration: `<rig stem>.contact.toml`, next to the rig.
+pub const CONFIG_SUFFIX: &str = ".contact.toml";
+
+/// Prefix of a `bulge_map` that names a custom vertex attribute of the glTF file.
+pub const ATTRIBUTE_PREFIX: &str = "attribute:";
+
+/// Largest accepted `passes`.
+pub const MAX_PASSES: usize = 16;
+
+/// Largest configuration or bulge-map file read (64 MiB): a guard against absurd inputs.
+pub const MAX_FILE_BYTES: u64 = 64 << 20;
+
+/// Why a configuration could not be read or applied. Every variant names the configuration
+/// file and the field at fault.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    /// The file could not be read (missing, unreadable, too large).
+    #[error("{file}: cannot read: {source}")]
+    Io {
+        /// The configuration file.
+        file: PathBuf,
+        /// The underlying error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// Not valid TOML, an unknown field, or a value of the wrong type.
+    #[error("{file}: {field}: {message} (line {line}, column {column})")]
+    Parse {
+        /// The configuration file.
+        file: PathBuf,
+        /// The field at fault, as far as it can be located (`object[1].stiffness`).
+        field: String,
+        /// Line (1-based).
+        line: usize,
+        /// Column (1-based).
+        column: usize,
+        /// What the parser said.
+        message: String,
+    },
+    /// A value out of its range, or two options that exclude each other.
+    #[error("{file}: {field}: {message}")]
+    Invalid {
+        /// The configuration file.
+        file: PathBuf,
+        /// The field at fault.
+        field: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A name or index that is no body of the rig.
+    #[error("{file}: {field}: no body '{name}' in the rig (bodies: {available})")]
+    UnknownBody {
+        /// The configuration file.
+        file: PathBuf,
+        /// The field at fault.
+        field: String,
+        /// The name or index given.
+        name: String,
+        /// The bodies of the rig (`0 'ball', 1 'thumb'`).
+        available: String,
+    },
+    /// An object or a pair configured twice.
+    #[error("{file}: {field}: {what} is already configured by {first}")]
+    Duplicate {
+        /// The configuration file.
+        file: PathBuf,
+        /// The second occurrence.
+        field: String,
+        /// What is repeated (`body 'ball'`, `pair 'ball' / 'thumb'`).
+        what: String,
+        /// The first occurrence.
+        first: String,
+    },
+    /// A bulge-map file that is refused (path leaving the folder), unreadable or malformed,
+    /// or a value that is not finite.
+    #[error("{file}: {field}: bulge map '{map}': {message}")]
+    BulgeMap {
+        /// The configuration file.
+        file: PathBuf,
+        /// The field at fault.
+        field: String,
+        /// The map as written in the configuration.
+        map: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A bulge map whose value count differs from the body's file vertex count.
+    #[error(
+        "{file}: {field}: bulge map '{map}' has {got} values, body '{body}' has {expected} file vertices"
+    )]
+    BulgeCount {
+        /// The configuration file.
+        file: PathBuf,
+        /// The field at fault.
+        field: String,
+        /// The map as written in the configuration.
+        map: String,
+        /// The body.
+        body: String,
+        /// File vertices of the body.
+        expected: usize,
+        /// Values found.
+        got: usize,
+    },
+    /// `attribute:NAME` naming no custom attribute of the body.
+    #[error(
+        "{file}: {field}: body '{body}' has no custom vertex attribute '{attribute}' (available: {available})"
+    )]
+    UnknownAttribute {
+        /// The configuration file.
+        file: PathBuf,
+        /// The field at fault.
+        field: String,
+        /// The body.
+        body: String,
+        /// The attribute asked for.
+        attribute: String,
+        /// The attributes the body has.
+        available: String,
+    },
+}
+
+impl ConfigError {
+    /// The field at fault (empty for [`ConfigError::Io`]).
+    pub fn field(&self) -> &str {
+        match self {
+            ConfigError::Io { .. } => "",
+            ConfigError::Parse { field, .. }
+            | ConfigError::Invalid { field, .. }
+            | ConfigError::UnknownBody { field, .. }
+            | ConfigError::Duplicate { field, .. }
+            | ConfigError::BulgeMap { field, .. }
+            | ConfigError::BulgeCount { field, .. }
+            | ConfigError::UnknownAttribute { field, .. } => field,
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// The file's structure
+
+/// A pseudo-stiffness: a number, or the string `"rigid"` (`f64::INFINITY`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Stiffness(pub f64);
+
+impl<'de> Deserialize<'de> for Stiffness {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl Visitor<'_> for V {
+            type Value = Stiffness;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a positive number or \"rigid\"")
+            }
+            fn visit_f64<E: de::Error>(self, v: f64) -> Result<Stiffness, E> {
+                Ok(Stiffness(v))
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> Result<Stiffness, E> {
+                Ok(Stiffness(v as f64))
+            }
+            fn visit_u64<E: de::Error>(self, v: u64) -> Result<Stiffness, E> {
+                Ok(Stiffness(v as f64))
+            }
+            fn visit_str<E: de::Error>(self, v: &str) -> Result<Stiffness, E> {
+                match v {
+                    "rigid" => Ok(Stiffness(f64::INFINITY)),
+                    _ => Err(E::invalid_value(de::Unexpected::Str(v), &self)),
+                }
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+/// A body, by name or by index.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum BodyRef {
+    /// A body name (or an index written as a string).
+    Name(String),
+    /// A body index.
+    Index(usize),
+}
+
+impl fmt::Display for BodyRef {
+    fn fmt(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        match self {
+            BodyRef::Name(n) => f.write_str(n),
+            BodyRef::Index(i) => write!(f, "{i}"),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for BodyRef {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl Visitor<'_> for V {
+            type Value = BodyRef;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a body name or a body index")
+            }
+            fn visit_str<E: de::Error>(self, v: &str) -> Result<BodyRef, E> {
+                Ok(BodyRef::Name(v.to_string()))
+            }
+            fn visit_u64<E: de::Error>(self, v: u64) -> Result<BodyRef, E> {
+                usize::try_from(v)
+                    .map(BodyRef::Index)
+                    .map_err(|_| E::invalid_value(de::Unexpected::Unsigned(v), &self))
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> Result<BodyRef, E> {
+                usize::try_from(v)
+                    .map(BodyRef::Index)
+                    .map_err(|_| E::invalid_value(de::Unexpected::Signed(v), &self))
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+/// Contact parameters as written (every one optional): `[defaults]`, or the parameters of an
+/// `[[object]]`.
+#[derive(Clone, Debug, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ParamSpec {
+    /// Pseudo-stiffness `k` (`"rigid"`: infinite).
+    pub stiffness: Option<Stiffness>,
+    /// `τ` (Eq. 4).
+    pub tau: Option<f64>,
+    /// `φ̄` in scene units.
+    pub extent: Option<f64>,
+    /// `φ̄` as a fraction of the rest bounding-box diagonal of the object.
+    pub extent_factor: Option<f64>,
+    /// `γ`.
+    pub gamma: Option<f64>,
+    /// `ω`.
+    pub omega: Option<f64>,
+}
+
+impl ParamSpec {
+    /// `over` on top of `self`: every value `over` gives wins; `extent` and `extent_factor`
+    /// are one choice (an object giving either replaces both defaults).
+    pub fn overlay(&self, over: &ParamSpec) -> ParamSpec {
+        let own_extent = over.extent.is_some() || over.extent_factor.is_some();
+        let (extent, extent_factor) = if own_extent {
+            (over.extent, over.extent_factor)
+        } else {
+            (self.extent, self.extent_factor)
+        };
+        ParamSpec {
+            stiffness: over.stiffness.or(self.stiffness),
+            tau: over.tau.or(self.tau),
+            extent,
+            extent_factor,
+            gamma: over.gamma.or(self.gamma),
+            omega: over.omega.or(self.omega),
+        }
+    }
+}
+
+/// One `[[object]]` table.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObjectSpec {
+    /// The body.
+    pub name: BodyRef,
+    /// See [`ParamSpec::stiffness`].
+    pub stiffness: Option<Stiffness>,
+    /// See [`ParamSpec::tau`].
+    pub tau: Option<f64>,
+    /// See [`ParamSpec::extent`].
+    pub extent: Option<f64>,
+    /// See [`ParamSpec::extent_factor`].
+    pub extent_factor: Option<f64>,
+    /// See [`ParamSpec::gamma`].
+    pub gamma: Option<f64>,
+    /// See [`ParamSpec::omega`].
+    pub omega: Option<f64>,
+    /// Painted bulge map: a text file (relative to the configuration's folder) or
+    /// `attribute:NAME`.
+    pub bulge_map: Option<String>,
+}
+
+impl ObjectSpec {
+    /// The parameters this object sets.
+    pub fn params(&self) -> ParamSpec {
+        ParamSpec {
+            stiffness: self.stiffness,
+            tau: self.tau,
+            extent: self.extent,
+            extent_factor: self.extent_factor,
+            gamma: self.gamma,
+            omega: self.omega,
+        }
+    }
+}
+
+/// One `[[pair]]` table.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PairSpec {
+    /// The two bodies; directions are outward for the first.
+    pub objects: [BodyRef; 2],
+    /// `τ` of this pair.
+    pub tau: Option<f64>,
+    /// A constant mapping direction.
+    pub direction: Option<[f64; 3]>,
+    /// Keyframed mapping directions `[time, x, y, z]`.
+    pub direction_keys: Option<Vec<[f64; 4]>>,
+}
+
+/// A rig's contact configuration (see the module documentation).
+#[derive(Clone, Debug, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ContactConfig {
+    /// Passes per frame ([`crate::pass::ContactPass::with_passes`]).
+    pub passes: Option<usize>,
+    /// Parameters of every object.
+    #[serde(default)]
+    pub defaults: ParamSpec,
+    /// Per-object parameters.
+    #[serde(default, rename = "object")]
+    pub objects: Vec<ObjectSpec>,
+    /// Per-pair overrides.
+    #[serde(default, rename = "pair")]
+    pub pairs: Vec<PairSpec>,
+    /// The file it was read from (named in errors).
+    #[serde(skip)]
+    pub file: PathBuf,
+    /// The folder bulge-map files are resolved in (and confined to).
+    #[serde(skip)]
+    pub base_dir: PathBuf,
+}
+
+/// What [`ContactConfig::resolve`] gives: per-body parameters, pair overrides, passes.
+pub type Resolved = (Vec<ObjectParams>, Vec<PairOverride>, usize);
+
+// ---------------------------------------------------------------------------------------------
+// Reading
+
+impl ContactConfig {
+    /// Reads and checks a configuration file; bulge maps are resolved in its folder.
+    pub fn load(path: &Path) -> Result<Self, ConfigError> {
+        let io = |source| ConfigError::Io {
+            file: path.to_path_buf(),
+            source,
+        };
+        let meta = std::fs::metadata(path).map_err(io)?;
+        if meta.len() > MAX_FILE_BYTES {
+            return Err(io(std::io::Error::other(format!(
+                "{} bytes, above the {MAX_FILE_BYTES} byte limit",
+                meta.len()
+            ))));
+        }
+        let text = std::fs::read_to_string(path).map_err(io)?;
+        let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        Self::parse(&text, path, &base)
+    }
+
+    /// Parses and checks configuration text; bulge maps are resolved in `base_dir`. Errors name
+    /// the file `<base_dir>/<inline>`.
+    pub fn from_str_with_base(text: &str, base_dir: &Path) -> Result<Self, ConfigError> {
+        Self::parse(text, &base_dir.join("<inline>"), base_dir)
+    }
+
+    /// Parses `text`, naming `file` in errors, and checks every number.
+    pub fn parse(text: &str, file: &Path, base_dir: &Path) -> Result<Self, ConfigError> {
+        let mut config: ContactConfig =
+            toml::from_str(text).map_err(|e| parse_error(file, text, &e))?;
+        config.file = file.to_path_buf();
+        config.base_dir = base_dir.to_path_buf();
+        config.check()?;
+        Ok(config)
+    }
+
+    /// The configuration of the rig at `rig`: `explicit` when given (it must exist), else
+    /// `<rig stem>.contact.toml` next to the rig when that file exists, else `None`.
+    pub fn for_rig(rig: &Path, explicit: Option<&Path>) -> Result<Option<Self>, ConfigError> {
+        match explicit {
+            Some(p) => Self::load(p).map(Some),
+            None => match default_path(rig) {
+                Some(p) if p.is_file() => Self::load(&p).map(Some),
+                _ => Ok(None),
+            },
+        }
+    }
+
+    /// Passes per frame (the default when the file does not say).
+    pub fn passes(&self) -> usize {
+        self.passes.unwrap_or(DEFAULT_PASSES)
+    }
+}
+
+/// `<rig stem>.contact.toml` next to `rig` (`None` when the path has no file name).
+pub fn default_path(rig: &Path) -> Option<PathBuf> {
+    let stem = rig.file_stem()?.to_string_lossy();
+    Some(rig.with_file_name(format!("{stem}{CONFIG_SUFFIX}")))
+}
+
+fn parse_error(file: &Path, text: &str, e: &toml::de::Error) -> ConfigError {
+    let offset = e.span().map_or(0, |s| s.start.min(text.len()));
+    let (line, column) = line_column(text, offset);
+    ConfigError::Parse {
+        file: file.to_path_buf(),
+        field: field_at(text, line),
+        line,
+        column,
+        message: e.message().trim().to_string(),
+    }
+}
+
+/// 1-based line and column of byte `offset`.
+fn line_column(text: &str, offset: usize) -> (usize, usize) {
+    let before = text.get(..offset).unwrap_or(text);
+    let line = before.matches('\n').count() + 1;
+    let column = before.len() - before.rfind('\n').map_or(0, |i| i + 1) + 1;
+    (line, column)
+}
+
+/// The dotted path of the key on (or last written before) 1-based `line`: the enclosing table
+/// (`object[1]`, `defaults`) and the key. A best effort for error messages.
+fn field_at(text: &str, line: usize) -> String {
+    let lines: Vec<&str> = text.lines().take(line.max(1)).collect();
+    let (mut table, mut counts) = (String::new(), Vec::<(String, usize)>::new());
+    let mut key = String::new();
+    for l in &lines {
+        let l = l.split('#').next().unwrap_or("").trim();
+        if let Some(name) = l.strip_prefix("[[").and_then(|r| r.strip_suffix("]]")) {
+            let name = name.trim().to_string();
+            let n = match counts.iter_mut().find(|(k, _)| *k == name) {
+                Some((_, c)) => {
+                    *c += 1;
+                    *c
+                }
+                None => {
+                    counts.push((name.clone(), 0));
+                    0
+                }
+            };
+            (table, key) = (format!("{name}[{n}]"), String::new());
+        } else if let Some(name) = l.strip_prefix('[').and_then(|r| r.strip_suffix(']')) {
+            (table, key) = (name.trim().to_string(), String::new());
+        } else if let Some((k, _)) = l.split_once('=') {
+            key = k.trim().trim_matches('"').to_string();
+        }
+    }
+    match (table.is_empty(), key.is_empty()) {
+        (true, true) => "(top level)".into(),
+        (true, false) => key,
+        (false, true) => table,
+        (false, false) => format!("{table}.{key}"),
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Checks that need no rig
+
+impl ContactConfig {
+    fn invalid(&self, field: impl Into<String>, message: impl Into<String>) -> ConfigError {
+        ConfigError::Invalid {
+            file: self.file.clone(),
+            field: field.into(),
+            message: message.into(),
+        }
+    }
+
+    /// Checks every number and every exclusive choice.
+    fn check(&self) -> Result<(), ConfigError> {
+        if let Some(p) = self.passes {
+            if !(1..=MAX_PASSES).contains(&p) {
+                return Err(self.invalid("passes", format!("{p} is not in 1..={MAX_PASSES}")));
+            }
+        }
+        self.check_params(&self.defaults, "defaults")?;
+        for (i, o) in self.objects.iter().enumerate() {
+            self.check_params(&o.params(), &format!("object[{i}]"))?;
+            self.check_map_syntax(o.bulge_map.as_deref(), &format!("object[{i}].bulge_map"))?;
+        }
+        for (j, p) in self.pairs.iter().enumerate() {
+            self.check_pair(p, &format!("pair[{j}]"))?;
+        }
+        Ok(())
+    }
+
+    fn check_params(&self, p: &ParamSpec, at: &str) -> Result<(), ConfigError> {
+        if let Some(Stiffness(k)) = p.stiffness {
+            if k.is_nan() || k <= 0.0 {
+                return Err(self.invalid(
+                    format!("{at}.stiffness"),
+                    format!("{k} is not a positive number or \"rigid\""),
+                ));
+            }
+        }
+        let finite = |v: Option<f64>| v.is_none_or(f64::is_finite);
+        let positive = |v: Option<f64>| v.is_none_or(|x| x.is_finite() && x > 0.0);
+        let checks = [
+            ("tau", finite(p.tau), "must be finite"),
+            ("extent", positive(p.extent), "must be finite and positive"),
+            (
+                "extent_factor",
+                positive(p.extent_factor),
+                "must be finite and positive",
+            ),
+            ("gamma", finite(p.gamma), "must be finite"),
+            (
+                "omega",
+                p.omega.is_none_or(|w| w.is_finite() && w >= 0.0),
+                "must be finite and non-negative",
+            ),
+        ];
+        if let Some((name, _, why)) = checks.iter().find(|c| !c.1) {
+            return Err(self.invalid(format!("{at}.{name}"), *why));
+        }
+        if p.extent.is_some() && p.extent_factor.is_some() {
+            return Err(self.invalid(
+                format!("{at}.extent_factor"),
+                "give extent or extent_factor, not both",
+            ));
+        }
+        Ok(())
+    }
+
+    fn check_map_syntax(&self, map: Option<&str>, field: &str) -> Result<(), ConfigError> {
+        match map {
+            Some(m) if m.trim().is_empty() => Err(self.invalid(field, "is empty")),
+            Some(m) if m.strip_prefix(ATTRIBUTE_PREFIX).is_some_and(str::is_empty) => {
+                Err(self.invalid(field, "names no attribute (attribute:NAME)"))
+            }
+            _ => Ok(()),
+        }
+    }
+
+    fn check_pair(&self, p: &PairSpec, at: &str) -> Result<(), ConfigError> {
+        if p.tau.is_some_and(|t| !t.is_finite()) {
+            return Err(self.invalid(format!("{at}.tau"), "must be finite"));
+        }
+        if p.direction.is_some() && p.direction_keys.is_some() {
+            return Err(self.invalid(
+                format!("{at}.direction_keys"),
+                "give direction or direction_keys, not both",
+            ));
+        }
+        if let Some(d) = p.direction {
+            if !usable_direction(&d) {
+                return Err(self.invalid(format!("{at}.direction"), "is zero or not finite"));
+            }
+        }
+        if let Some(keys) = &p.direction_keys {
+            self.check_keys(keys, &format!("{at}.direction_keys"))?;
+        }
+        Ok(())
+    }
+
+    fn check_keys(&self, keys: &[[f64; 4]], field: &str) -> Result<(), ConfigError> {
+        if keys.is_empty() {
+            return Err(self.invalid(field, "has no key"));
+        }
+        for (k, key) in keys.iter().enumerate() {
+            if !key[0].is_finite() {
+                return Err(self.invalid(format!("{field}[{k}]"), "time is not finite"));
+            }
+            if !usable_direction(&[key[1], key[2], key[3]]) {
+                return Err(self.invalid(format!("{field}[{k}]"), "direction is zero or not finite"));
+            }
+            if let Some(j) = keys[..k].iter().position(|o| o[0] == key[0]) {
+                return Err(self.invalid(
+                    format!("{field}[{k}]"),
+                    format!("time {} is already keyed by [{j}]", key[0]),
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+fn usable_direction(d: &[f64; 3]) -> bool {
+    d.iter().all(|x| x.is_finite()) && d.iter().any(|&x| x != 0.0)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Resolution against a rig
+
+/// Bounding-box diagonal of each body at the rest pose (linear blend skinning, no animation):
+/// the reference of `extent_factor`.
+pub fn rest_diagonals(rig: &Rig) -> Vec<f64> {
+    let pose = rig.pose_at(None, 0.0);
+    rig.bodies
+        .iter()
+        .map(|b| {
+            let mats = pose.skin_matrices(&rig.skins[b.skin]);
+            bbox_diagonal(&crate::skinning::lbs::skin(b, &mats).positions)
+        })
+        .collect()
+}
+
+/// `0 'ball', 1 'thumb', ...` (at most 20 bodies listed).
+fn list_bodies(rig: &Rig) -> String {
+    let mut s: Vec<String> = rig
+        .bodies
+        .iter()
+        .take(20)
+        .enumerate()
+        .map(|(i, b)| format!("{i} '{}'", b.name))
+        .collect();
+    if rig.bodies.len() > 20 {
+        s.push(format!("... ({} in all)", rig.bodies.len()));
+    }
+    if s.is_empty() {
+        "none".into()
+    } else {
+        s.join(", ")
+    }
+}
+
+impl ContactConfig {
+    /// Maps the configuration onto `rig` (`welded`: its welded bodies, in body order): one
+    /// [`ObjectParams`] per body (defaults, then the object's own values), the pair overrides
+    /// and the number of passes. Painted maps are read per file vertex and gathered to welded
+    /// vertices (the first file copy of a welded vertex gives its value).
+    pub fn resolve(&self, rig: &Rig, welded: &[WeldedMesh]) -> Result<Resolved, ConfigError> {
+        if welded.len() != rig.bodies.len() {
+            return Err(self.invalid(
+                "(rig)",
+                format!("{} welded meshes for {} bodies", welded.len(), rig.bodies.len()),
+            ));
+        }
+        let diagonals = rest_diagonals(rig);
+        let mut params: Vec<ObjectParams> = diagonals
+            .iter()
+            .map(|&d| object_params(&self.defaults, d))
+            .collect();
+        let mut seen: Vec<Option<usize>> = vec![None; rig.bodies.len()];
+        for (i, o) in self.objects.iter().enumerate() {
+            let at = format!("object[{i}]");
+            let b = self.body_index(rig, &o.name, &format!("{at}.name"))?;
+            if let Some(first) = seen[b] {
+                return Err(ConfigError::Duplicate {
+                    file: self.file.clone(),
+                    field: format!("{at}.name"),
+                    what: format!("body {b} '{}'", rig.bodies[b].name),
+                    first: format!("object[{first}]"),
+                });
+            }
+            seen[b] = Some(i);
+            params[b] = object_params(&self.defaults.overlay(&o.params()), diagonals[b]);
+            if let Some(map) = &o.bulge_map {
+                let field = format!("{at}.bulge_map");
+                params[b].painted = Some(self.painted(rig, &welded[b], b, map, &field)?);
+            }
+        }
+        let overrides = self.pair_overrides(rig)?;
+        Ok((params, overrides, self.passes()))
+    }
+
+    /// The body `r` names: a body name first, else an index (integer, or a string holding
+    /// one).
+    pub fn body_index(&self, rig: &Rig, r: &BodyRef, field: &str) -> Result<usize, ConfigError> {
+        let n = rig.bodies.len();
+        let found = match r {
+            BodyRef::Index(i) => (*i < n).then_some(*i),
+            BodyRef::Name(s) => {
+                let hits: Vec<usize> = (0..n).filter(|&b| rig.bodies[b].name == *s).collect();
+                if hits.len() > 1 {
+                    return Err(self.invalid(
+                        field,
+                        format!("bodies {hits:?} are all named '{s}': use an index"),
+                    ));
+                }
+                hits.first()
+                    .copied()
+                    .or_else(|| s.trim().parse::<usize>().ok().filter(|&i| i < n))
+            }
+        };
+        found.ok_or_else(|| ConfigError::UnknownBody {
+            file: self.file.clone(),
+            field: field.to_string(),
+            name: r.to_string(),
+            available: list_bodies(rig),
+        })
+    }
+
+    fn pair_overrides(&self, rig: &Rig) -> Result<Vec<PairOverride>, ConfigError> {
+        let mut out: Vec<PairOverride> = Vec::new();
+        for (j, p) in self.pairs.iter().enumerate() {
+            let at = format!("pair[{j}]");
+            let a = self.body_index(rig, &p.objects[0], &format!("{at}.objects[0]"))?;
+            let b = self.body_index(rig, &p.objects[1], &format!("{at}.objects[1]"))?;
+            if a == b {
+                return Err(self.invalid(
+                    format!("{at}.objects"),
+                    format!("names body {a} '{}' twice", rig.bodies[a].name),
+                ));
+            }
+            if let Some(first) = out.iter().position(|o| o.bodies == [a, b] || o.bodies == [b, a]) {
+                return Err(ConfigError::Duplicate {
+                    file: self.file.clone(),
+                    field: format!("{at}.objects"),
+                    what: format!("pair '{}' / '{}'", rig.bodies[a].name, rig.bodies[b].name),
+                    first: format!("pair[{first}]"),
+                });
+            }
+            out.push(PairOverride {
+                bodies: [a, b],
+                tau: p.tau,
+                direction: self.direction_track(p, &at)?,
+            });
+        }
+        Ok(out)
+    }
+
+    fn direction_track(&self, p: &PairSpec, at: &str) -> Result<Option<DirectionTrack>, ConfigError> {
+        if let Some(d) = p.direction {
+            return Ok(Some(DirectionTrack::constant(Vector3::from(d))));
+        }
+        let Some(keys) = &p.direction_keys else {
+            return Ok(None);
+        };
+        let keys = keys
+            .iter()
+            .map(|k| (k[0], Vector3::new(k[1], k[2], k[3])))
+            .collect();
+        DirectionTrack::keyed(keys)
+            .map(Some)
+            .ok_or_else(|| self.invalid(format!("{at}.direction_keys"), "invalid keys"))
+    }
+}
+
+/// The pass parameters of a (merged) spec; unset values keep [`ObjectParams::default`].
+fn object_params(p: &ParamSpec, rest_diagonal: f64) -> ObjectParams {
+    let d = ObjectParams::default();
+    ObjectParams {
+        stiffness: p.stiffness.map_or(d.stiffness, |s| s.0),
+        tau: p.tau.unwrap_or(d.tau),
+        extent: p
+            .extent
+            .or(p.extent_factor.map(|f| f * rest_diagonal))
+            .or(d.extent),
+        gamma: p.gamma.unwrap_or(d.gamma),
+        omega: p.omega.unwrap_or(d.omega),
+        painted: None,
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Painted bulge maps
+
+impl ContactConfig {
+    fn map_error(&self, field: &str, map: &str, message: impl Into<String>) -> ConfigError {
+        ConfigError::BulgeMap {
+            file: self.file.clone(),
+            field: field.to_string(),
+            map: map.to_string(),
+            message: message.into(),
+        }
+    }
+
+    /// The painted map of body `b` per welded vertex.
+    fn painted(
+        &self,
+        rig: &Rig,
+        welded: &WeldedMesh,
+        b: usize,
+        map: &str,
+        field: &str,
+    ) -> Result<Vec<f64>, ConfigError> {
+        let body = &rig.bodies[b];
+        let values = match map.strip_prefix(ATTRIBUTE_PREFIX) {
+            Some(name) => self.attribute_map(rig, b, name, field)?,
+            None => self.file_map(map, field)?,
+        };
+        if values.len() != body.vertex_count() {
+            return Err(ConfigError::BulgeCount {
+                file: self.file.clone(),
+                field: field.to_string(),
+                map: map.to_string(),
+                body: body.name.clone(),
+                expected: body.vertex_count(),
+                got: values.len(),
+            });
+        }
+        if let Some(v) = values.iter().position(|x| !x.is_finite()) {
+            let message = format!("value of vertex {v} is {}, not finite", values[v]);
+            return Err(self.map_error(field, map, message));
+        }
+        if welded.to_welded.len() != values.len() {
+            let message = "the welded mesh does not match the body";
+            return Err(self.map_error(field, map, message));
+        }
+        Ok(welded.gather(&values))
+    }
+
+    fn attribute_map(
+        &self,
+        rig: &Rig,
+        b: usize,
+        name: &str,
+        field: &str,
+    ) -> Result<Vec<f64>, ConfigError> {
+        rig.extra_attribute(b, name)
+            .map(<[f64]>::to_vec)
+            .ok_or_else(|| {
+                let names: Vec<&str> = rig
+                    .extra_attributes
+                    .get(b)
+                    .map(|l| l.iter().map(|(n, _)| n.as_str()).collect())
+                    .unwrap_or_default();
+                ConfigError::UnknownAttribute {
+                    file: self.file.clone(),
+                    field: field.to_string(),
+                    body: rig.bodies[b].name.clone(),
+                    attribute: name.to_string(),
+                    available: if names.is_empty() {
+                        "none".into()
+                    } else {
+                        names.join(", ")
+                    },
+                }
+            })
+    }
+
+    /// Reads a map file confined to the configuration's folder.
+    fn file_map(&self, map: &str, field: &str) -> Result<Vec<f64>, ConfigError> {
+        let path = crate::rig::confined_path(&self.base_dir, map).map_err(|e| match e {
+            Confinement::Refused(why) => self.map_error(
+                field,
+                map,
+                format!("the path {why}: a bulge map must lie inside the configuration's folder"),
+            ),
+            Confinement::Unreadable(message) => self.map_error(field, map, message),
+        })?;
+        let size = std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0);
+        if size > MAX_FILE_BYTES {
+            let message = format!("{size} bytes, above the {MAX_FILE_BYTES} byte limit");
+            return Err(self.map_error(field, map, message));
+        }
+        let text = std::fs::read_to_string(&path)
+            .map_err(|e| self.map_error(field, map, format!("cannot read: {e}")))?;
+        parse_map(&text).map_err(|message| self.map_error(field, map, message))
+    }
+}
+
+/// The numbers of a bulge-map text: whitespace separated, `#` starts a comment. Non-finite
+/// values are an error.
+pub fn parse_map(text: &str) -> Result<Vec<f64>, String> {
+    let mut out = Vec::new();
+    for (l, line) in text.lines().enumerate() {
+        let content = line.split('#').next().unwrap_or("");
+        for token in content.split_whitespace() {
+            let v: f64 = token
+                .parse()
+                .map_err(|_| format!("line {}: '{token}' is not a number", l + 1))?;
+            if !v.is_finite() {
+                return Err(format!("line {}: value '{token}' is not finite", l + 1));
+            }
+            out.push(v);
+        }
+    }
+    Ok(out)
+}

@@ -397,6 +397,17 @@ impl ContactPass {
                 positions.len()
             )));
         }
+        for (body, (p, b)) in positions.iter().zip(&self.bodies).enumerate() {
+            if p.len() != b.index.vertex_count() {
+                return Err(PassError::Intersect {
+                    body,
+                    source: IntersectError::PositionCount {
+                        expected: b.index.vertex_count(),
+                        got: p.len(),
+                    },
+                });
+            }
+        }
         let normals: Vec<Vec<Vector3<f64>>> = positions
             .par_iter()
             .zip(&self.bodies)

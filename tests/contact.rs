@@ -469,3 +469,59 @@ fn probe_swap() {
         );
     }
 }
+
+/// Fig. 14: several fingertips on one ball give several contact zones on one working region,
+/// each with its own direction and threshold; one volume solve for the ball.
+#[test]
+fn several_contacts_on_one_region() {
+    let l = load("fingertips_ball", 31);
+    let nb = l.triangles.len();
+    let pass = l
+        .pass(object_params(nb, &[1.0], 0.0), vec![])
+        .with_passes(1);
+    let input = l.frame(30);
+    let out = pass.run(&input).expect("pass runs");
+    let ball: Vec<_> = out
+        .contacts
+        .iter()
+        .filter(|c| c.bodies.contains(&0))
+        .collect();
+    assert_eq!(ball.len(), 3, "three fingertips press the ball");
+    let side = |c: &contact_skin::pass::ContactSummary| {
+        let k = usize::from(c.bodies[1] == 0);
+        c.contact.sides[k].clone()
+    };
+    let sides: Vec<_> = ball.iter().map(|c| side(c)).collect();
+    for (i, a) in sides.iter().enumerate() {
+        assert!(!a.zone.vertices.is_empty());
+        for b in &sides[i + 1..] {
+            assert!(
+                a.direction.angle(&b.direction).to_degrees() > 30.0,
+                "distinct directions"
+            );
+            assert!(
+                a.zone.vertices.iter().all(|v| !b.zone.inside[*v as usize]),
+                "disjoint zones"
+            );
+        }
+    }
+    let thresholds: Vec<f64> = ball.iter().map(|c| c.contact.threshold).collect();
+    assert!(
+        thresholds.windows(2).any(|w| w[0] != w[1]),
+        "one threshold per contact"
+    );
+    // Next to each zone (u small) the displacement direction is that contact's d̄ (the
+    // harmonic blend of the directions, Eq. 6 with w(u) ≈ 1).
+    let d = &out.diagnostics[0];
+    for s in &sides {
+        let mut worst: f64 = 0.0;
+        for bp in &s.zone.boundary {
+            let v = bp.outside as usize;
+            if d.u[v] < 0.05 && !d.zone[v] {
+                worst = worst.max(d.direction[v].angle(&s.direction).to_degrees());
+            }
+        }
+        assert!(worst < 25.0, "direction next to a zone off by {worst}°");
+    }
+    assert!(l.volume_error(0, &input, &out) < 1e-10);
+}

@@ -449,3 +449,139 @@ pub fn edge_hits(
     }
     out
 }
+
+#[cfg(test)]
+mod tests {
+    //! The potential surface against analytic cases (`PIPELINE.md`: Appendix A as printed is
+    //! off by up to 90°). A lies below with top surface `z = f_A(x, y)` (outward +z), B above
+    //! with bottom surface `z = f_B(x, y)` (outward -z), `f_B < f_A` where they overlap. Both
+    //! are cast along the vertical, so `S` is the height field
+    //! `z_S = k̄_A f_A + (1 - k̄_A) f_B` with upward normal `normalize(-∇z_S, 1)`.
+    use super::*;
+
+    type Height = dyn Fn(f64, f64) -> (f64, [f64; 2]);
+
+    /// Angle between two vectors, accurate near 0 (unlike `acos`).
+    fn angle(a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
+        a.cross(b).norm().atan2(a.dot(b))
+    }
+
+    fn up_normal(grad: [f64; 2]) -> Vector3<f64> {
+        Vector3::new(-grad[0], -grad[1], 1.0).normalize()
+    }
+
+    /// Largest angle (radians) between the sampled `n'` and the analytic normal of `S`, and
+    /// largest distance between `p'` and `S`, over a grid, from both sides.
+    fn worst(fa: &Height, fb: &Height, k_a: f64) -> (f64, f64) {
+        let (mut angle, mut dist) = (0.0f64, 0.0f64);
+        for i in -4..=4 {
+            for j in -4..=4 {
+                let (x, y) = (0.05 * f64::from(i), 0.05 * f64::from(j));
+                let ((za, ga), (zb, gb)) = (fa(x, y), fb(x, y));
+                let (zs, gs) = (
+                    k_a * za + (1.0 - k_a) * zb,
+                    [
+                        k_a * ga[0] + (1.0 - k_a) * gb[0],
+                        k_a * ga[1] + (1.0 - k_a) * gb[1],
+                    ],
+                );
+                let n_s = up_normal(gs);
+                let n_a = up_normal(ga);
+                let n_b = -up_normal(gb);
+                let (pa, pb) = (Point3::new(x, y, za), Point3::new(x, y, zb));
+                let side_a = SurfaceFrame {
+                    cast: -Vector3::z(),
+                    stiffness: k_a,
+                };
+                let side_b = SurfaceFrame {
+                    cast: Vector3::z(),
+                    stiffness: 1.0 - k_a,
+                };
+                let sa = side_a.sample(
+                    pa,
+                    n_a,
+                    Mapping {
+                        target: pb,
+                        target_normal: n_b,
+                    },
+                );
+                let sb = side_b.sample(
+                    pb,
+                    n_b,
+                    Mapping {
+                        target: pa,
+                        target_normal: n_a,
+                    },
+                );
+                // A's n' points into A (down), B's into B (up); same point of S from both.
+                angle = angle.max(self::angle(&-sa.surface_normal, &n_s));
+                angle = angle.max(self::angle(&sb.surface_normal, &n_s));
+                dist = dist.max((sa.surface_point.z - zs).abs());
+                dist = dist.max((sb.surface_point - sa.surface_point).norm());
+                assert!(sa.depth >= 0.0 && (sa.depth - sb.depth).abs() < 1e-14 * (1.0 + sa.depth));
+            }
+        }
+        (angle, dist)
+    }
+
+    #[test]
+    fn potential_surface_normal_matches_two_planes() {
+        let fa = |x: f64, y: f64| (0.3 + 0.4 * x - 0.7 * y, [0.4, -0.7]);
+        let fb = |x: f64, y: f64| (-0.7 - 1.3 * x + 0.2 * y, [-1.3, 0.2]);
+        for k in [0.0, 0.25, 0.5, 0.75, 1.0] {
+            let (angle, dist) = worst(&fa, &fb, k);
+            assert!(angle < 1e-12 && dist < 1e-14, "k̄ {k}: {angle} rad, {dist}");
+        }
+    }
+
+    #[test]
+    fn potential_surface_normal_matches_two_spheres() {
+        // A: sphere of radius 1 centered at (0, 0, -0.8) (top cap); B: radius 0.6 centered at
+        // (0.1, -0.05, 0.4) (bottom cap).
+        let fa = |x: f64, y: f64| {
+            let r = (1.0 - x * x - y * y).sqrt();
+            (-0.8 + r, [-x / r, -y / r])
+        };
+        let fb = |x: f64, y: f64| {
+            let (dx, dy) = (x - 0.1, y + 0.05);
+            let r = (0.36 - dx * dx - dy * dy).sqrt();
+            (0.4 - r, [dx / r, dy / r])
+        };
+        for k in [0.0, 0.25, 0.5, 0.75, 1.0] {
+            let (angle, dist) = worst(&fa, &fb, k);
+            assert!(angle < 1e-12 && dist < 1e-14, "k̄ {k}: {angle} rad, {dist}");
+        }
+    }
+
+    #[test]
+    fn printed_appendix_a_formula_is_off_against_two_spheres() {
+        // Appendix A as printed, for a vertex of M_1 (here A, d̂ oriented along the second
+        // mesh's normal field, i.e. d̂ = -z... we evaluate it as printed with d̂ = -z):
+        // η = (I - d̂ᵀd̂)(k̄_2 |n2·d̂| / sgn(n1·d̂) n1 + (1 - k̄_2)|n1·d̂| / sgn(n2·d̂) n2)
+        //     - |n1·d̂||n2·d̂| d̂. It disagrees with the analytic normal by many degrees.
+        let d = -Vector3::z();
+        let (x, y) = (0.2, 0.15);
+        let r = (1.0f64 - x * x - y * y).sqrt();
+        let n1 = up_normal([-x / r, -y / r]);
+        let (dx, dy) = (x - 0.1, y + 0.05);
+        let rb = (0.36f64 - dx * dx - dy * dy).sqrt();
+        let n2 = -up_normal([dx / rb, dy / rb]);
+        let k2 = 0.5;
+        let proj = |v: Vector3<f64>| v - d * d.dot(&v);
+        let eta = proj(
+            n1 * (k2 * n2.dot(&d).abs() / n1.dot(&d).signum())
+                + n2 * ((1.0 - k2) * n1.dot(&d).abs() / n2.dot(&d).signum()),
+        ) - d * (n1.dot(&d).abs() * n2.dot(&d).abs());
+        let analytic = up_normal([
+            0.5 * (-x / r) + 0.5 * (dx / rb),
+            0.5 * (-y / r) + 0.5 * (dy / rb),
+        ]);
+        let printed = eta.normalize();
+        let off = printed
+            .angle(&analytic)
+            .min(printed.angle(&-analytic))
+            .to_degrees();
+        eprintln!("printed Appendix A normal off by {off:.1}°");
+        assert!(off > 5.0, "printed formula off by {off}°");
+    }
+}

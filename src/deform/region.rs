@@ -625,7 +625,14 @@ fn displace(
         let root = VolumeCubic::assemble(frame.triangles, &faces, rest, &base, &bulge_dir)?
             .solve_with(RootChoice::FirstCrossing)?;
         stats.root = Some(root.kind);
-        root.h
+        // No exact root (deep penetration: the displacement directions of what is left of the
+        // region point inward, so no bulge along them restores the volume): no bulge rather
+        // than the closest approach, which can turn faces inside out.
+        if root.kind == RootKind::Exact {
+            root.h
+        } else {
+            0.0
+        }
     } else {
         0.0
     };

@@ -57,7 +57,7 @@ fn load_impl(file: &Path, bytes: &[u8], folder: Option<&Path>) -> Result<Rig, Ri
     let mut warnings = Vec::new();
     let (nodes, node_order) = read_nodes(file, doc)?;
     let skins = read_skins(&src, doc)?;
-    let bodies = read_bodies(&src, doc, &skins, &mut warnings)?;
+    let (bodies, extra_attributes) = read_bodies(&src, doc, &skins, &mut warnings)?;
     let animations = read_animations(&src, doc, &mut warnings)?;
     Ok(Rig {
         source: file.to_path_buf(),
@@ -66,6 +66,7 @@ fn load_impl(file: &Path, bytes: &[u8], folder: Option<&Path>) -> Result<Rig, Ri
         skins,
         bodies,
         animations,
+        extra_attributes,
         warnings,
     })
 }
@@ -247,39 +248,57 @@ fn decode_data_uri(uri: &str) -> Result<Vec<u8>, String> {
 /// symbolic links that point outside.
 pub(crate) fn safe_relative_path(folder: &Path, uri: &str) -> Result<PathBuf, String> {
     let decoded = percent_decode(uri)?;
-    let refuse = |why: &str| {
-        Err(format!(
-            "URI '{uri}' {why}: a buffer must lie inside the file's folder"
-        ))
-    };
-    if decoded.contains('\\') || decoded.contains('\0') {
-        return refuse("contains a backslash or NUL");
+    confined_path(folder, &decoded).map_err(|e| match e {
+        Confinement::Refused(why) => {
+            format!("URI '{uri}' {why}: a buffer must lie inside the file's folder")
+        }
+        Confinement::Unreadable(message) => message,
+    })
+}
+
+/// Why [`confined_path`] refused a path.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub(crate) enum Confinement {
+    /// The path could leave the folder (the reason, e.g. `is absolute`).
+    Refused(&'static str),
+    /// The folder or the file cannot be resolved (missing file, ...).
+    Unreadable(String),
+}
+
+/// Resolves the relative path `rel` (already decoded) inside `folder`, refusing anything that
+/// could leave it: schemes and drive letters, backslashes and NUL, absolute paths, any
+/// component other than a plain name or `.`, and symbolic links resolving outside. The file
+/// must exist; the canonical path is returned.
+pub(crate) fn confined_path(folder: &Path, rel: &str) -> Result<PathBuf, Confinement> {
+    use Confinement::{Refused, Unreadable};
+    if rel.contains('\\') || rel.contains('\0') {
+        return Err(Refused("contains a backslash or NUL"));
     }
-    if let Some(colon) = decoded.find(':') {
-        if !decoded[..colon].contains('/') {
-            return refuse("has a scheme or drive letter");
+    if let Some(colon) = rel.find(':') {
+        if !rel[..colon].contains('/') {
+            return Err(Refused("has a scheme or drive letter"));
         }
     }
-    let rel = Path::new(&decoded);
-    if rel.is_absolute() || decoded.starts_with('/') {
-        return refuse("is absolute");
+    let path = Path::new(rel);
+    if path.is_absolute() || rel.starts_with('/') {
+        return Err(Refused("is absolute"));
     }
-    if rel
+    if path
         .components()
         .any(|c| !matches!(c, Component::Normal(_) | Component::CurDir))
     {
-        return refuse("leaves the folder");
+        return Err(Refused("leaves the folder"));
     }
-    let joined = folder.join(rel);
+    let joined = folder.join(path);
     let canon_folder = folder
         .canonicalize()
         .or_else(|_| std::env::current_dir().and_then(|d| d.join(folder).canonicalize()))
-        .map_err(|e| format!("cannot resolve the file's folder: {e}"))?;
+        .map_err(|e| Unreadable(format!("cannot resolve the folder: {e}")))?;
     let canon = joined
         .canonicalize()
-        .map_err(|e| format!("cannot open '{}': {e}", joined.display()))?;
+        .map_err(|e| Unreadable(format!("cannot open '{}': {e}", joined.display())))?;
     if !canon.starts_with(&canon_folder) {
-        return refuse("resolves (through a link) outside the folder");
+        return Err(Refused("resolves (through a link) outside the folder"));
     }
     Ok(canon)
 }
@@ -441,13 +460,17 @@ fn read_skins(src: &Source, doc: &gltf::Document) -> Result<Vec<Skin>, RigError>
 // ---------------------------------------------------------------------------------------------
 // Skinned meshes
 
+/// Custom attributes of one body or primitive: `(name with its underscore, values)`.
+type Extras = Vec<(String, Vec<f64>)>;
+
 fn read_bodies(
     src: &Source,
     doc: &gltf::Document,
     skins: &[Skin],
     warnings: &mut Vec<String>,
-) -> Result<Vec<Body>, RigError> {
+) -> Result<(Vec<Body>, Vec<Extras>), RigError> {
     let mut bodies = Vec::new();
+    let mut extras = Vec::new();
     for node in doc.nodes() {
         let Some(mesh) = node.mesh() else { continue };
         let Some(skin) = node.skin() else {
@@ -474,8 +497,9 @@ fn read_bodies(
             primitives: Vec::new(),
         };
         let mut has_normals = true;
+        let mut primitive_extras = Vec::new();
         for prim in mesh.primitives() {
-            has_normals &= read_primitive(
+            let read = read_primitive(
                 src,
                 doc,
                 &prim,
@@ -484,6 +508,8 @@ fn read_bodies(
                 &mut body,
                 warnings,
             )?;
+            has_normals &= read.has_normals;
+            primitive_extras.extend(read.extras);
         }
         if body.positions.is_empty() {
             warnings.push(format!(
@@ -495,12 +521,85 @@ fn read_bodies(
         if !has_normals {
             body.normals = area_weighted_normals(&body.positions, &body.triangles);
         }
+        extras.push(merge_extras(primitive_extras, mesh.index(), warnings));
         bodies.push(body);
     }
-    Ok(bodies)
+    Ok((bodies, extras))
 }
 
-/// Appends one primitive to `body`; returns whether it carried NORMAL.
+/// Concatenates the custom attributes of a body's triangle primitives (one list per
+/// primitive, in order); an attribute missing from one of them is dropped with a warning.
+fn merge_extras(per_primitive: Vec<Extras>, mesh: usize, warnings: &mut Vec<String>) -> Extras {
+    let mut names: Vec<String> = Vec::new();
+    for (name, _) in per_primitive.iter().flatten() {
+        if !names.contains(name) {
+            names.push(name.clone());
+        }
+    }
+    let mut out = Vec::new();
+    for name in names {
+        let parts: Vec<&Vec<f64>> = per_primitive
+            .iter()
+            .filter_map(|p| p.iter().find(|(n, _)| *n == name).map(|(_, v)| v))
+            .collect();
+        if parts.len() == per_primitive.len() {
+            out.push((name, parts.into_iter().flatten().copied().collect()));
+        } else {
+            warnings.push(format!(
+                "meshes[{mesh}]: attribute {name} is missing on some triangle primitives: ignored"
+            ));
+        }
+    }
+    out
+}
+
+/// The custom `_NAME` attributes of a primitive with `n` vertices: SCALAR float or normalized
+/// integer accessors of `n` elements; anything else is skipped with a warning.
+fn read_extras(
+    src: &Source,
+    doc: &gltf::Document,
+    prim: &gltf::Primitive,
+    at: &str,
+    n: usize,
+    warnings: &mut Vec<String>,
+) -> Result<Extras, RigError> {
+    use gltf::accessor::{DataType, Dimensions};
+    let mut out = Vec::new();
+    for (semantic, acc) in prim.attributes() {
+        let gltf::Semantic::Extras(name) = semantic else {
+            continue;
+        };
+        let name = format!("_{name}");
+        let mut skip =
+            |why: String| warnings.push(format!("{at}: attribute {name} {why}: ignored"));
+        if acc.dimensions() != Dimensions::Scalar {
+            skip(format!("is {:?}, not SCALAR", acc.dimensions()));
+            continue;
+        }
+        if acc.data_type() != DataType::F32 && !acc.normalized() {
+            skip("holds integers that are not normalized".into());
+            continue;
+        }
+        let role = format!("{name} of {at}");
+        let values = accessor::read(src, doc, acc.index(), &role, &[1], false)?;
+        if values.count() != n {
+            skip(format!("has {} values for {n} vertices", values.count()));
+            continue;
+        }
+        out.push((name, values.data));
+    }
+    Ok(out)
+}
+
+/// What [`read_primitive`] found besides the arrays it appended.
+struct PrimitiveRead {
+    /// The primitive carried NORMAL (or was ignored).
+    has_normals: bool,
+    /// Its custom attributes (`None` for an ignored, non-triangle primitive).
+    extras: Option<Extras>,
+}
+
+/// Appends one primitive to `body`.
 fn read_primitive(
     src: &Source,
     doc: &gltf::Document,
@@ -509,7 +608,7 @@ fn read_primitive(
     skin: &Skin,
     body: &mut Body,
     warnings: &mut Vec<String>,
-) -> Result<bool, RigError> {
+) -> Result<PrimitiveRead, RigError> {
     use gltf::mesh::Mode;
     let at = format!("meshes[{mesh}].primitives[{}]", prim.index());
     let mode = prim.mode();
@@ -518,7 +617,10 @@ fn read_primitive(
         Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
     ) {
         warnings.push(format!("{at}: mode {mode:?} is not triangles: ignored"));
-        return Ok(true);
+        return Ok(PrimitiveRead {
+            has_normals: true,
+            extras: None,
+        });
     }
     let pos_acc = prim
         .get(&gltf::Semantic::Positions)
@@ -564,6 +666,7 @@ fn read_primitive(
         None => None,
     };
     let weights = read_weights(src, doc, prim, &at, n, skin, warnings)?;
+    let extras = read_extras(src, doc, prim, &at, n, warnings)?;
     let indices = match prim.indices() {
         Some(acc) => {
             accessor::read_indices(
@@ -616,7 +719,10 @@ fn read_primitive(
         first_triangle,
         triangle_count: local_tris.len(),
     });
-    Ok(normals_present(prim))
+    Ok(PrimitiveRead {
+        has_normals: normals_present(prim),
+        extras: Some(extras),
+    })
 }
 
 fn normals_present(prim: &gltf::Primitive) -> bool {

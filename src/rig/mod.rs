@@ -98,6 +98,11 @@ pub struct Rig {
     pub bodies: Vec<Body>,
     /// Animations.
     pub animations: Vec<Animation>,
+    /// Custom scalar vertex attributes of each body (same order as [`Rig::bodies`]): glTF
+    /// attributes whose name starts with `_` (kept with the underscore, e.g. `_BULGE`), SCALAR
+    /// float or normalized integer, one value per file vertex, present on every triangle
+    /// primitive of the body. Other custom attributes are skipped with a warning.
+    pub extra_attributes: Vec<Vec<(String, Vec<f64>)>>,
     /// Documented fallbacks taken while reading (renormalized weights, ignored primitives...).
     pub warnings: Vec<String>,
 }
@@ -115,6 +120,16 @@ impl Rig {
         key.parse::<usize>()
             .ok()
             .filter(|&i| i < self.animations.len())
+    }
+
+    /// The custom vertex attribute `name` (underscore included) of body `body`, one value per
+    /// file vertex.
+    pub fn extra_attribute(&self, body: usize, name: &str) -> Option<&[f64]> {
+        self.extra_attributes
+            .get(body)?
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| v.as_slice())
     }
 
     /// Total number of file vertices over all bodies.

@@ -1,0 +1,154 @@
+//! The contact pass between separate objects, per frame, with the per-stage breakdown of the
+//! 2021 paper's Table 1 (i. intersection, m. mapping, c. contact zones, p. parametrization,
+//! di. directions, g. guiding-field diffusion, de. deformation).
+//!
+//! Scenes: the committed `rigs/fingertips_ball.glb` (ball 1514 + three fingertips 3 × 402
+//! vertices; the paper's Fingers-Ball has 1064 + 1561), `capsule_pair` (2282 + 2282) and
+//! `sphere_plane` (4002 + 762), LBS input. Timings on one thread (a one-thread rayon pool:
+//! the paper's "one core") and with every core.
+//!
+//! Run with `cargo bench --bench contact`. Before criterion's measurements, the bench prints a
+//! table of per-stage medians over every frame with contact of each animation.
+
+use contact_skin::frames::{self, Precomputed};
+use contact_skin::pass::{ContactPass, ObjectParams, PassOutput, RestBody, StageTimings};
+use contact_skin::rig::{self, Rig};
+use contact_skin::skinning::Method;
+use criterion::{criterion_group, criterion_main, Criterion};
+use nalgebra::Point3;
+use std::hint::black_box;
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+struct Scene {
+    name: &'static str,
+    rig: Rig,
+    pre: Precomputed,
+    pass: ContactPass,
+    times: Vec<f64>,
+}
+
+fn welded(rig: &Rig, pre: &Precomputed, t: f64, anim: Option<usize>) -> Vec<Vec<Point3<f64>>> {
+    let f = frames::evaluate(rig, pre, anim, 0, t);
+    f.bodies
+        .iter()
+        .zip(&pre.welded)
+        .map(|(b, w)| w.gather(&b.positions))
+        .collect()
+}
+
+fn scene(name: &'static str, passes: usize) -> Scene {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("rigs")
+        .join(format!("{name}.glb"));
+    let rig = rig::load(&path).expect("committed rig");
+    let pre = Precomputed::new(&rig, Method::Lbs);
+    let rest = welded(&rig, &pre, 0.0, None);
+    let bodies: Vec<RestBody> = rest
+        .iter()
+        .zip(&pre.welded)
+        .map(|(p, w)| (p.as_slice(), w.triangles.as_slice()))
+        .collect();
+    let params = vec![ObjectParams::default(); bodies.len()];
+    let pass = ContactPass::new(&bodies, params, vec![])
+        .expect("pass")
+        .with_passes(passes);
+    let times = frames::sample_times(&rig, Some(0), Some(61));
+    Scene {
+        name,
+        rig,
+        pre,
+        pass,
+        times,
+    }
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    if v.is_empty() {
+        0.0
+    } else {
+        v[v.len() / 2]
+    }
+}
+
+/// Per-stage medians (ms) over the frames with contact, on the current rayon pool.
+fn breakdown(s: &Scene) -> (Vec<(&'static str, f64)>, usize, f64) {
+    let mut rows: Vec<StageTimings> = Vec::new();
+    let mut skin = Vec::new();
+    for &t in &s.times {
+        let start = Instant::now();
+        let input = welded(&s.rig, &s.pre, t, Some(0));
+        skin.push(start.elapsed().as_secs_f64());
+        let out: PassOutput = s.pass.run_at(&input, t).expect("pass");
+        if !out.contacts.is_empty() {
+            rows.push(out.timings);
+        }
+    }
+    let col = |f: fn(&StageTimings) -> f64| 1e3 * median(rows.iter().map(f).collect());
+    let table = vec![
+        ("i. intersection", col(|t| t.intersection)),
+        ("m. mapping", col(|t| t.mapping)),
+        ("c. contact zones", col(|t| t.zones)),
+        ("p. parametrization", col(|t| t.parametrization)),
+        ("di. directions", col(|t| t.directions)),
+        ("g. diffusion", col(|t| t.fields)),
+        ("de. deformation", col(|t| t.deformation)),
+        ("setup (normals, refit)", col(|t| t.setup)),
+        ("wall", col(|t| t.wall)),
+    ];
+    (table, rows.len(), 1e3 * median(skin))
+}
+
+fn print_breakdowns() {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .expect("pool");
+    for passes in [1, 2] {
+        for name in ["fingertips_ball", "capsule_pair", "sphere_plane"] {
+            let s = scene(name, passes);
+            let (table, n, skin) = pool.install(|| breakdown(&s));
+            let wall = table.last().map_or(0.0, |r| r.1);
+            println!("{name}, {passes} pass(es), one thread, median over {n} frames with contact (skinning + weld {skin:.3} ms):");
+            for (label, ms) in &table {
+                println!(
+                    "  {label:<24} {ms:>8.3} ms {:>5.1} %",
+                    100.0 * ms / wall.max(1e-12)
+                );
+            }
+        }
+    }
+}
+
+fn bench(c: &mut Criterion) {
+    print_breakdowns();
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .expect("pool");
+    let mut g = c.benchmark_group("contact");
+    g.measurement_time(Duration::from_secs(4)).sample_size(20);
+    for name in ["fingertips_ball", "capsule_pair", "sphere_plane"] {
+        let s = scene(name, 1);
+        let last = *s.times.last().unwrap_or(&0.0);
+        let deep = welded(&s.rig, &s.pre, last, Some(0));
+        let rest = welded(&s.rig, &s.pre, 0.0, Some(0));
+        g.bench_function(format!("{name}/deepest frame/1 pass/1 thread"), |b| {
+            b.iter(|| one.install(|| black_box(s.pass.run(&deep).expect("pass"))))
+        });
+        g.bench_function(format!("{name}/deepest frame/1 pass/all threads"), |b| {
+            b.iter(|| black_box(s.pass.run(&deep).expect("pass")))
+        });
+        g.bench_function(format!("{name}/no-contact frame/1 thread"), |b| {
+            b.iter(|| one.install(|| black_box(s.pass.run(&rest).expect("pass"))))
+        });
+        g.bench_function(format!("{name}/skinning + weld/1 thread"), |b| {
+            b.iter(|| one.install(|| black_box(welded(&s.rig, &s.pre, last, Some(0)))))
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

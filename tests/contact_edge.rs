@@ -1,0 +1,167 @@
+//! Corner cases of the contact pass on generated meshes: deep penetration, grazing contact,
+//! contact at a mesh boundary, bad input. Documented results, never a panic or a NaN.
+
+#[path = "common/meshes.rs"]
+mod meshes;
+
+use contact_skin::pass::{ContactPass, ObjectParams, PassError};
+use contact_skin::report::metrics;
+use meshes::{grid, icosphere, TestMesh};
+use nalgebra::{Point3, Vector3};
+
+fn moved(m: &TestMesh, scale: f64, offset: Vector3<f64>) -> Vec<Point3<f64>> {
+    m.positions
+        .iter()
+        .map(|p| Point3::from(p.coords * scale + offset))
+        .collect()
+}
+
+fn pass_for(bodies: &[(&[Point3<f64>], &[[u32; 3]])]) -> ContactPass {
+    let params = bodies.iter().map(|_| ObjectParams::default()).collect();
+    ContactPass::new(bodies, params, vec![]).expect("pass precomputes")
+}
+
+fn finite(out: &[Vec<Point3<f64>>]) -> bool {
+    out.iter().all(|b| metrics::non_finite(b) == 0)
+}
+
+/// A small sphere entirely inside a big one: no intersection curve, so no contact is found
+/// (the method needs intersection curves to define `I_l`); the output is the input.
+#[test]
+fn an_object_entirely_inside_another_is_left_unchanged() {
+    let s = icosphere(3);
+    let (big, small) = (
+        moved(&s, 1.0, Vector3::zeros()),
+        moved(&s, 0.3, Vector3::new(0.1, 0.0, 0.0)),
+    );
+    let pass = pass_for(&[(&big, &s.triangles), (&small, &s.triangles)]);
+    let out = pass.run(&[big.clone(), small.clone()]).expect("runs");
+    assert!(out.contacts.is_empty());
+    assert_eq!(out.positions, vec![big, small]);
+}
+
+/// Deep penetration: a sphere sunk past its center into another, down to almost entirely
+/// inside. Finite output, no inverted face; the volume is exact whenever the cubic has a root,
+/// otherwise (almost swallowed: the free part of the small sphere can only bulge inward) the
+/// documented fallback is no bulge (`RootKind` reported).
+#[test]
+fn deep_penetration_is_resolved_without_nan() {
+    let s = icosphere(3);
+    let mut exact = 0;
+    for depth in [0.6, 0.9, 1.1, 1.2] {
+        let a = moved(&s, 1.0, Vector3::zeros());
+        let b = moved(&s, 0.6, Vector3::new(0.0, 0.0, 1.6 - depth));
+        let pass = pass_for(&[(&a, &s.triangles), (&b, &s.triangles)]);
+        let out = pass.run(&[a.clone(), b.clone()]).expect("runs");
+        assert!(finite(&out.positions), "depth {depth}: NaN");
+        assert_eq!(out.contacts.len(), 1, "depth {depth}");
+        for (k, input) in [a, b].iter().enumerate() {
+            let v0 = contact_skin::mesh::signed_volume(input, &s.triangles);
+            let v1 = contact_skin::mesh::signed_volume(&out.positions[k], &s.triangles);
+            let stats = out.diagnostics[k].stats.expect("deformed");
+            let inv = metrics::inverted_faces(&s.triangles, input, &out.positions[k]);
+            let err = ((v1 - v0) / v0).abs();
+            println!("depth {depth} body {k}: volume error {err:.2e}, root {:?}, h_v {:.3}, zone {}, inverted {}", stats.root, stats.bulge_height, stats.zone_vertices, inv.inverted);
+            assert_eq!(inv.inverted, 0, "depth {depth} body {k}: inverted faces");
+            if stats.root == Some(contact_skin::deform::volume::RootKind::Exact) {
+                assert!(err < 1e-4, "depth {depth} body {k}: volume error {err}");
+                exact += 1;
+            } else {
+                assert_eq!(stats.bulge_height, 0.0);
+            }
+        }
+    }
+    assert!(exact >= 6, "most cases must be exact ({exact})");
+}
+
+/// Grazing contact: spheres touching at a vertex, then overlapping by tiny amounts. A touch is
+/// no contact; a tiny overlap gives a tiny, finite displacement.
+#[test]
+fn grazing_contact_is_continuous_and_finite() {
+    let s = icosphere(3);
+    let a = moved(&s, 1.0, Vector3::zeros());
+    let top = a.iter().map(|p| p.z).fold(f64::MIN, f64::max);
+    let bottom = s.positions.iter().map(|p| p.z).fold(f64::MAX, f64::min) * 0.5;
+    for overlap in [0.0, 1e-12, 1e-9, 1e-6, 1e-3] {
+        let b = moved(&s, 0.5, Vector3::new(0.0, 0.0, top - bottom - overlap));
+        let pass = pass_for(&[(&a, &s.triangles), (&b, &s.triangles)]);
+        let out = pass.run(&[a.clone(), b.clone()]).expect("runs");
+        assert!(finite(&out.positions));
+        let moved_most = out.positions[0]
+            .iter()
+            .zip(&a)
+            .chain(out.positions[1].iter().zip(&b))
+            .map(|(p, q)| (p - q).norm())
+            .fold(0.0, f64::max);
+        println!(
+            "overlap {overlap:e}: contacts {}, largest displacement {moved_most:e}",
+            out.contacts.len()
+        );
+        assert!(
+            moved_most <= 10.0 * overlap + 1e-12,
+            "overlap {overlap}: moved {moved_most}"
+        );
+    }
+}
+
+/// Contact at a mesh boundary: a sphere pressed into an open square sheet near its border. The
+/// sheet's border bounds the extent (`φ_max,eff`), no volume is solved for the open sheet, and
+/// its border does not move.
+#[test]
+fn contact_at_an_open_border_keeps_the_border_fixed() {
+    let sheet = grid(24);
+    let s = icosphere(3);
+    let plane: Vec<Point3<f64>> = sheet.positions.clone();
+    let ball = moved(&s, 0.3, Vector3::new(0.85, 0.0, 0.25));
+    let pass = pass_for(&[(&plane, &sheet.triangles), (&ball, &s.triangles)]);
+    let out = pass.run(&[plane.clone(), ball.clone()]).expect("runs");
+    assert!(finite(&out.positions));
+    assert_eq!(out.contacts.len(), 1);
+    let stats = out.diagnostics[0].stats.expect("sheet deformed");
+    assert!(stats.extent_bound, "the border must bound the extent");
+    assert_eq!(stats.root, None, "an open sheet has no volume to preserve");
+    let border = |p: &Point3<f64>| p.x.abs().max(p.y.abs()) > 1.0 - 1e-9;
+    for (p, q) in plane.iter().zip(&out.positions[0]) {
+        if border(p) {
+            assert!((p - q).norm() < 1e-12, "border vertex moved");
+        }
+    }
+    let v0 = contact_skin::mesh::signed_volume(&ball, &s.triangles);
+    let v1 = contact_skin::mesh::signed_volume(&out.positions[1], &s.triangles);
+    assert!(((v1 - v0) / v0).abs() < 1e-4);
+}
+
+#[test]
+fn bad_input_gives_typed_errors() {
+    let s = icosphere(2);
+    let a = moved(&s, 1.0, Vector3::zeros());
+    let b = moved(&s, 1.0, Vector3::new(1.5, 0.0, 0.0));
+    let pass = pass_for(&[(&a, &s.triangles), (&b, &s.triangles)]);
+    let mut nan = b.clone();
+    nan[3].x = f64::NAN;
+    assert!(matches!(
+        pass.run(&[a.clone(), nan]),
+        Err(PassError::Intersect { body: 1, .. })
+    ));
+    assert!(matches!(
+        pass.run(&[a.clone()]),
+        Err(PassError::Mismatch(_))
+    ));
+    let short = a[..10].to_vec();
+    assert!(matches!(
+        pass.run(&[a.clone(), short]),
+        Err(PassError::Intersect { .. })
+    ));
+    let bad_tris = vec![[0, 1, 99_999]];
+    let params = vec![ObjectParams::default(); 2];
+    assert!(ContactPass::new(&[(&a, &s.triangles), (&b, &bad_tris)], params, vec![]).is_err());
+    // Degenerate faces and duplicated faces are tolerated.
+    let mut tris = s.triangles.clone();
+    tris.push(tris[0]);
+    tris.push([0, 0, 1]);
+    let params = vec![ObjectParams::default(); 2];
+    let pass =
+        ContactPass::new(&[(&a, &tris), (&b, &s.triangles)], params, vec![]).expect("tolerated");
+    let out = pass.run(&[a.clone(), b.clone()]).expect("runs");
+    assert!(finite(&out.positions));
+}
