@@ -21,7 +21,6 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 
 struct Scene {
-    name: &'static str,
     rig: Rig,
     pre: Precomputed,
     pass: ContactPass,
@@ -37,7 +36,7 @@ fn welded(rig: &Rig, pre: &Precomputed, t: f64, anim: Option<usize>) -> Vec<Vec<
         .collect()
 }
 
-fn scene(name: &'static str, passes: usize) -> Scene {
+fn scene(name: &str, passes: usize) -> Scene {
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("rigs")
         .join(format!("{name}.glb"));
@@ -55,7 +54,6 @@ fn scene(name: &'static str, passes: usize) -> Scene {
         .with_passes(passes);
     let times = frames::sample_times(&rig, Some(0), Some(61));
     Scene {
-        name,
         rig,
         pre,
         pass,

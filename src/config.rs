@@ -592,7 +592,9 @@ impl ContactConfig {
                 return Err(self.invalid(format!("{field}[{k}]"), "time is not finite"));
             }
             if !usable_direction(&[key[1], key[2], key[3]]) {
-                return Err(self.invalid(format!("{field}[{k}]"), "direction is zero or not finite"));
+                return Err(
+                    self.invalid(format!("{field}[{k}]"), "direction is zero or not finite")
+                );
             }
             if let Some(j) = keys[..k].iter().position(|o| o[0] == key[0]) {
                 return Err(self.invalid(
@@ -653,7 +655,11 @@ impl ContactConfig {
         if welded.len() != rig.bodies.len() {
             return Err(self.invalid(
                 "(rig)",
-                format!("{} welded meshes for {} bodies", welded.len(), rig.bodies.len()),
+                format!(
+                    "{} welded meshes for {} bodies",
+                    welded.len(),
+                    rig.bodies.len()
+                ),
             ));
         }
         let diagonals = rest_diagonals(rig);
@@ -723,7 +729,10 @@ impl ContactConfig {
                     format!("names body {a} '{}' twice", rig.bodies[a].name),
                 ));
             }
-            if let Some(first) = out.iter().position(|o| o.bodies == [a, b] || o.bodies == [b, a]) {
+            if let Some(first) = out
+                .iter()
+                .position(|o| o.bodies == [a, b] || o.bodies == [b, a])
+            {
                 return Err(ConfigError::Duplicate {
                     file: self.file.clone(),
                     field: format!("{at}.objects"),
@@ -740,7 +749,11 @@ impl ContactConfig {
         Ok(out)
     }
 
-    fn direction_track(&self, p: &PairSpec, at: &str) -> Result<Option<DirectionTrack>, ConfigError> {
+    fn direction_track(
+        &self,
+        p: &PairSpec,
+        at: &str,
+    ) -> Result<Option<DirectionTrack>, ConfigError> {
         if let Some(d) = p.direction {
             return Ok(Some(DirectionTrack::constant(Vector3::from(d))));
         }

@@ -82,12 +82,15 @@ fn no_residual_penetration_over_the_stiffness_and_tau_grid() {
     }
 }
 
+/// Welded positions of every body of one frame.
+type Bodies = Vec<Vec<Point3<f64>>>;
+
 /// Runs the default pass over `frames` frames of the scene.
 fn animation(
     l: &Loaded,
     params: Vec<ObjectParams>,
     frames: usize,
-) -> (Vec<Vec<Vec<Point3<f64>>>>, Vec<PassOutput>) {
+) -> (Vec<Bodies>, Vec<PassOutput>) {
     let pass = l.pass(params, vec![]);
     let inputs: Vec<_> = (0..frames).map(|f| l.frame(f)).collect();
     let outputs: Vec<_> = inputs
@@ -122,6 +125,7 @@ fn volume_is_preserved_exactly_and_nothing_is_inverted_or_nan() {
 }
 
 #[test]
+#[allow(clippy::needless_range_loop)]
 fn gamma_scales_only_the_bulge_and_zero_means_no_bulge() {
     let l = load("capsule_pair", 31);
     let input = l.frame(30);
@@ -256,217 +260,6 @@ fn animations_are_temporally_continuous() {
             sd.frame
         );
         assert!(sd.ratio < 3.0, "{name}: a pop (ratio {})", sd.ratio);
-    }
-}
-
-#[test]
-#[ignore = "debugging aid"]
-fn probe_frames() {
-    let name = std::env::var("PROBE_SCENE").unwrap_or("sphere_plane".into());
-    let (a, b): (usize, usize) = (
-        std::env::var("PROBE_A")
-            .ok()
-            .and_then(|x| x.parse().ok())
-            .unwrap_or(10),
-        std::env::var("PROBE_B")
-            .ok()
-            .and_then(|x| x.parse().ok())
-            .unwrap_or(18),
-    );
-    let l = load(&name, 91);
-    let nb = l.triangles.len();
-    let pass = l
-        .pass(object_params(nb, &[1.0], 0.0), vec![])
-        .with_passes(1);
-    for f in a..b {
-        let input0 = l.frame(f);
-        let input = if std::env::var("PROBE_SECOND").is_ok() {
-            pass.run(&input0).expect("runs").positions
-        } else {
-            input0
-        };
-        let out = pass.run(&input).expect("runs");
-        let maxd: Vec<f64> = (0..nb)
-            .map(|k| {
-                input[k]
-                    .iter()
-                    .zip(&out.positions[k])
-                    .map(|(p, q)| (p - q).norm())
-                    .fold(0.0, f64::max)
-                    / l.h_rest
-            })
-            .collect();
-        println!(
-            "frame {f}: contacts {} later {} max displacement {:?}",
-            out.contacts.len(),
-            out.later_contacts,
-            maxd
-        );
-        for c in &out.contacts {
-            println!(
-                "   eps {:.5} zones {} {} dir {:?}",
-                c.contact.threshold,
-                c.contact.sides[0].zone.vertices.len(),
-                c.contact.sides[1].zone.vertices.len(),
-                c.contact.sides[0].direction.as_slice()
-            );
-        }
-        for d in &out.diagnostics {
-            if let Some(s) = &d.stats {
-                println!("   {s:?}");
-            }
-        }
-    }
-}
-
-#[test]
-#[ignore = "debugging aid"]
-fn probe_second_pass_regions() {
-    use contact_skin::intersect::{IntersectionRegion, Intersections, MeshIndex, Side};
-    let l = load("sphere_plane", 91);
-    let pass = l.pass(object_params(2, &[1.0], 0.0), vec![]).with_passes(1);
-    let out = pass.run(&l.frame(14)).expect("runs").positions;
-    let ia = MeshIndex::new(&out[0], &l.triangles[0]).unwrap();
-    let ib = MeshIndex::new(&out[1], &l.triangles[1]).unwrap();
-    let (a, b) = (ia.pose(&out[0]).unwrap(), ib.pose(&out[1]).unwrap());
-    let ints = Intersections::between(&a, &b);
-    println!(
-        "hits {} segments {} curves {:?} stats {:?}",
-        ints.hits.len(),
-        ints.segments.len(),
-        ints.curves
-            .iter()
-            .map(|c| (c.nodes.len(), c.closed))
-            .collect::<Vec<_>>(),
-        ints.stats
-    );
-    for h in &ints.hits {
-        println!("hit {:?}", h);
-    }
-    for (side, m) in [(Side::A, &a), (Side::B, &b)] {
-        let r = IntersectionRegion::inside(&ints, side, m).unwrap();
-        println!(
-            "{side:?}: inside vertices {} whole faces {} cut faces {} stats {:?}",
-            r.inside.iter().filter(|&&x| x).count(),
-            r.whole_faces.len(),
-            r.cut_faces.len(),
-            r.stats
-        );
-    }
-}
-
-#[test]
-#[ignore = "debugging aid"]
-fn probe_pop() {
-    let name = std::env::var("PROBE_SCENE").unwrap_or("fingertips_ball".into());
-    let f0: usize = std::env::var("PROBE_A")
-        .ok()
-        .and_then(|x| x.parse().ok())
-        .unwrap_or(68);
-    let passes: usize = std::env::var("PROBE_PASSES")
-        .ok()
-        .and_then(|x| x.parse().ok())
-        .unwrap_or(2);
-    let l = load(&name, 91);
-    let nb = l.triangles.len();
-    let pass = l
-        .pass(object_params(nb, &[1.0], 0.0), vec![])
-        .with_passes(passes);
-    let outs: Vec<_> = (f0..f0 + 3)
-        .map(|f| pass.run(&l.frame(f)).expect("runs"))
-        .collect();
-    let ins: Vec<_> = (f0..f0 + 3).map(|f| l.frame(f)).collect();
-    for b in 0..nb {
-        let mut best = (0.0, 0);
-        for v in 0..ins[0][b].len() {
-            let d = (outs[2].positions[b][v].coords - 2.0 * outs[1].positions[b][v].coords
-                + outs[0].positions[b][v].coords)
-                .norm();
-            if d > best.0 {
-                best = (d, v);
-            }
-        }
-        let v = best.1;
-        println!(
-            "body {b}: max second diff {:.3} h at v {v}",
-            best.0 / l.h_rest
-        );
-        for k in 0..3 {
-            let d = &outs[k].diagnostics[b];
-            println!(
-                "   f{}: zone {} u {:.4} a {:.4} h s {:.4} h disp {:.4} h bulge {:.4} h",
-                f0 + k,
-                d.zone[v],
-                d.u[v],
-                d.amplitude[v] / l.h_rest,
-                d.slope[v] / l.h_rest,
-                (outs[k].positions[b][v] - ins[k][b][v]).norm() / l.h_rest,
-                d.bulge[v].norm() / l.h_rest
-            );
-        }
-    }
-}
-
-#[test]
-#[ignore = "debugging aid"]
-fn probe_swap() {
-    let l = load("capsule_pair", 31);
-    let k = [stiffness_for(0.3), 1.0];
-    let direct = l.pass(object_params(2, &k, 0.6), vec![]).with_passes(1);
-    let swapped = l
-        .swapped_pass(object_params(2, &[k[1], k[0]], 0.6))
-        .with_passes(1);
-    let input = l.frame(24);
-    let a = direct.run(&input).expect("runs");
-    let rev: Vec<_> = input.iter().rev().cloned().collect();
-    let b = swapped.run(&rev).expect("runs");
-    let (ca, cb) = (&a.contacts[0].contact, &b.contacts[0].contact);
-    println!(
-        "eps {:e} vs {:e}; mean {:e} vs {:e}",
-        ca.threshold, cb.threshold, ca.mean_depth, cb.mean_depth
-    );
-    for s in 0..2 {
-        let (x, y) = (&ca.sides[s], &cb.sides[1 - s]);
-        println!(
-            "side {s}: dir {:?} vs {:?}",
-            x.direction.as_slice(),
-            y.direction.as_slice()
-        );
-        println!(
-            "  zone {} vs {}, boundary {} vs {}",
-            x.zone.vertices.len(),
-            y.zone.vertices.len(),
-            x.zone.boundary.len(),
-            y.zone.boundary.len()
-        );
-        let mut worst: f64 = 0.0;
-        for (v, (p, q)) in x.samples.iter().zip(&y.samples).enumerate() {
-            match (p, q) {
-                (Some(p), Some(q)) => worst = worst.max((p.surface_point - q.surface_point).norm()),
-                (None, None) => {}
-                _ => println!("  sample presence differs at {v}"),
-            }
-        }
-        println!("  samples differ by {worst:e}");
-        for (p, q) in x.zone.boundary.iter().zip(&y.zone.boundary) {
-            if (p.alpha - q.alpha).abs() > 1e-12 || p.inside != q.inside {
-                println!(
-                    "  bp {} {} {:e} vs {} {} {:e}",
-                    p.inside, p.outside, p.alpha, q.inside, q.outside, q.alpha
-                );
-            }
-        }
-    }
-    for body in 0..2 {
-        let mut worst: f64 = 0.0;
-        for (p, q) in a.positions[body].iter().zip(&b.positions[1 - body]) {
-            worst = worst.max((p - q).norm());
-        }
-        println!(
-            "body {body}: positions differ {worst:e}; stats {:?} vs {:?}",
-            a.diagnostics[body].stats,
-            b.diagnostics[1 - body].stats
-        );
     }
 }
 

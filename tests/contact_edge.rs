@@ -4,7 +4,7 @@
 #[path = "common/meshes.rs"]
 mod meshes;
 
-use contact_skin::pass::{ContactPass, ObjectParams, PassError};
+use contact_skin::pass::{ContactPass, ObjectParams, PassError, RestBody};
 use contact_skin::report::metrics;
 use meshes::{grid, icosphere, TestMesh};
 use nalgebra::{Point3, Vector3};
@@ -16,7 +16,7 @@ fn moved(m: &TestMesh, scale: f64, offset: Vector3<f64>) -> Vec<Point3<f64>> {
         .collect()
 }
 
-fn pass_for(bodies: &[(&[Point3<f64>], &[[u32; 3]])]) -> ContactPass {
+fn pass_for(bodies: &[RestBody]) -> ContactPass {
     let params = bodies.iter().map(|_| ObjectParams::default()).collect();
     ContactPass::new(bodies, params, vec![]).expect("pass precomputes")
 }
@@ -144,7 +144,7 @@ fn bad_input_gives_typed_errors() {
         Err(PassError::Intersect { body: 1, .. })
     ));
     assert!(matches!(
-        pass.run(&[a.clone()]),
+        pass.run(std::slice::from_ref(&a)),
         Err(PassError::Mismatch(_))
     ));
     let short = a[..10].to_vec();

@@ -3,7 +3,7 @@
 //! glb per method, the LBS frames of the first animation written as OBJ, and a table of timings
 //! and volume changes printed (and saved as `summary.json`).
 
-use super::pose::median;
+use super::contact::median;
 use super::CliResult;
 use contact_skin::frames::{self, Frame, Precomputed};
 use contact_skin::mesh::signed_volume;

@@ -1,5 +1,6 @@
 //! Command-line interface: argument parsing and dispatch to one module per subcommand.
 
+mod contact;
 mod demo;
 mod info;
 mod pose;

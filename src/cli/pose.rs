@@ -1,7 +1,10 @@
-//! `contact-skin pose`: evaluates an animation and writes its frames.
+//! `contact-skin pose`: evaluates an animation, runs the contact pass on every frame (unless
+//! `--no-contact`) and writes the frames (and, with `--diagnostics`, the pass's fields).
 
+use super::contact::{self, median, median_stages, BoxError, ContactRun, StageMs};
 use super::CliResult;
 use contact_skin::frames::{self, Frame, Precomputed};
+use contact_skin::pass::StageTimings;
 use contact_skin::output::{self, glb, obj};
 use contact_skin::rig::{self, Rig};
 use contact_skin::skinning::Method;
@@ -58,9 +61,20 @@ pub struct Args {
     /// Skinning method feeding the contact pass.
     #[arg(long, value_enum, default_value_t = Skinning::Lbs)]
     skinning: Skinning,
-    /// Write the plain skinning result (the contact pass is not built yet: currently always the case).
-    #[arg(long)]
+    /// Write the plain skinning result, without the contact pass.
+    #[arg(long, conflicts_with_all = ["config", "passes", "diagnostics"])]
     no_contact: bool,
+    /// Contact configuration (TOML). Default: `<rig stem>.contact.toml` next to the rig if it
+    /// exists, else the default parameters.
+    #[arg(long, value_name = "PATH")]
+    config: Option<PathBuf>,
+    /// Contact passes per frame (overrides the configuration; default 2, 1 is the paper's).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=16))]
+    passes: Option<u64>,
+    /// Also write `frame_NNNN.diag.json` per frame: per body and file vertex u, zone,
+    /// displacement, amplitude, slope, bulge; the contacts and the stage timings.
+    #[arg(long)]
+    diagnostics: bool,
     /// Output format.
     #[arg(long, value_enum, default_value_t = Format::Obj)]
     format: Format,
@@ -74,13 +88,24 @@ struct Summary {
     rig: String,
     animation: Option<String>,
     skinning: String,
+    /// Whether the contact pass ran.
     contact: bool,
+    /// The contact configuration file used (`None`: defaults, or no contact).
+    config: Option<String>,
+    /// Contact passes per frame (`None` without contact).
+    passes: Option<usize>,
     frames: usize,
+    /// Frames where the pass found at least one contact.
+    contact_frames: usize,
     vertices: usize,
     files: Vec<String>,
+    /// Number of `frame_NNNN.diag.json` written.
+    diagnostics: usize,
     precompute_ms: f64,
     total_ms: f64,
     median_frame_ms: f64,
+    /// Median per-stage time of the contact pass (ms), over all frames.
+    stage_ms: Option<StageMs>,
 }
 
 /// Resolves `--animation` against the rig.
@@ -126,6 +151,25 @@ fn progress(len: usize, json: bool) -> ProgressBar {
     pb
 }
 
+/// Everything a frame needs, shared by all frames of a run.
+struct Job<'a> {
+    args: &'a Args,
+    rig: &'a Rig,
+    pre: &'a Precomputed,
+    contact: Option<&'a ContactRun>,
+    animation: Option<usize>,
+    header: String,
+    pb: ProgressBar,
+}
+
+/// What is kept of a frame once written.
+struct FrameStats {
+    ms: f64,
+    contacts: usize,
+    timings: Option<StageTimings>,
+    diagnostics: bool,
+}
+
 /// Runs `pose`.
 pub fn run(a: &Args) -> CliResult {
     let start = Instant::now();
@@ -141,23 +185,71 @@ pub fn run(a: &Args) -> CliResult {
     let method = Method::from(a.skinning);
     let t_pre = Instant::now();
     let pre = Precomputed::new(&rig, method);
+    let contact = if a.no_contact {
+        None
+    } else {
+        let passes = a.passes.map(|p| p as usize);
+        Some(ContactRun::new(&a.rig, &rig, &pre, a.config.as_deref(), passes)?)
+    };
     let precompute_ms = t_pre.elapsed().as_secs_f64() * 1e3;
     std::fs::create_dir_all(&a.out)?;
-    let pb = progress(times.len(), a.json);
-    pb.set_message(format!("posing {}", a.rig.display()));
-    let header = format!(
-        "rig {} animation {:?} skinning {} contact off",
+    let job = Job {
+        args: a,
+        rig: &rig,
+        pre: &pre,
+        contact: contact.as_ref(),
+        animation,
+        header: header(a, &rig, animation, method, contact.as_ref()),
+        pb: progress(times.len(), a.json),
+    };
+    job.pb.set_message(format!("posing {}", a.rig.display()));
+    let (files, stats) = match a.format {
+        Format::Obj => write_obj_frames(&job, &times)?,
+        Format::Glb => write_glb(&job, &times)?,
+    };
+    job.pb.finish_and_clear();
+    let summary = summarize(&job, method, &times, files, &stats, precompute_ms, start);
+    print_summary(&summary, a)
+}
+
+fn header(
+    a: &Args,
+    rig: &Rig,
+    animation: Option<usize>,
+    method: Method,
+    contact: Option<&ContactRun>,
+) -> String {
+    let contact = match contact {
+        None => "contact off".to_string(),
+        Some(c) => format!(
+            "contact on (passes {}, config {})",
+            c.passes,
+            c.config
+                .as_ref()
+                .map_or("none".into(), |p| p.display().to_string())
+        ),
+    };
+    format!(
+        "rig {} animation {:?} skinning {} {contact}",
         a.rig.display(),
         animation.and_then(|i| rig.animations[i].name.clone()),
         method
-    );
-    let (files, frame_ms) = match a.format {
-        Format::Obj => write_obj_frames(a, &rig, &pre, animation, &times, &header, &pb)?,
-        Format::Glb => write_glb(a, &rig, &pre, animation, &times, &pb)?,
-    };
-    pb.finish_and_clear();
-    let summary = Summary {
-        rig: a.rig.display().to_string(),
+    )
+}
+
+fn summarize(
+    job: &Job,
+    method: Method,
+    times: &[f64],
+    files: Vec<PathBuf>,
+    stats: &[FrameStats],
+    precompute_ms: f64,
+    start: Instant,
+) -> Summary {
+    let (rig, animation) = (job.rig, job.animation);
+    let timings: Vec<StageTimings> = stats.iter().filter_map(|s| s.timings).collect();
+    Summary {
+        rig: job.args.rig.display().to_string(),
         animation: animation.map(|i| {
             rig.animations[i]
                 .name
@@ -165,104 +257,145 @@ pub fn run(a: &Args) -> CliResult {
                 .unwrap_or_else(|| i.to_string())
         }),
         skinning: method.to_string(),
-        contact: false,
+        contact: job.contact.is_some(),
+        config: job
+            .contact
+            .and_then(|c| c.config.as_ref())
+            .map(|p| p.display().to_string()),
+        passes: job.contact.map(|c| c.passes),
         frames: times.len(),
+        contact_frames: stats.iter().filter(|s| s.contacts > 0).count(),
         vertices: rig.vertex_count(),
         files: files.iter().map(|p| p.display().to_string()).collect(),
+        diagnostics: stats.iter().filter(|s| s.diagnostics).count(),
         precompute_ms,
         total_ms: start.elapsed().as_secs_f64() * 1e3,
-        median_frame_ms: median(frame_ms),
-    };
+        median_frame_ms: median(stats.iter().map(|s| s.ms).collect()),
+        stage_ms: job.contact.map(|_| median_stages(&timings)),
+    }
+}
+
+fn print_summary(s: &Summary, a: &Args) -> CliResult {
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&summary)?);
-    } else {
+        println!("{}", serde_json::to_string_pretty(s)?);
+        return Ok(());
+    }
+    println!(
+        "posed {} ({} vertices) with {}: {} frames in {:.1} ms (precompute {:.1} ms, median {:.3} ms per frame), wrote {} file(s) to {}",
+        s.rig,
+        s.vertices,
+        s.skinning,
+        s.frames,
+        s.total_ms,
+        s.precompute_ms,
+        s.median_frame_ms,
+        s.files.len() + s.diagnostics,
+        a.out.display()
+    );
+    if let (Some(passes), Some(t)) = (s.passes, &s.stage_ms) {
         println!(
-            "posed {} ({} vertices) with {}: {} frames in {:.1} ms (precompute {:.1} ms, median {:.3} ms per frame), wrote {} file(s) to {}",
-            summary.rig,
-            summary.vertices,
-            summary.skinning,
-            summary.frames,
-            summary.total_ms,
-            summary.precompute_ms,
-            summary.median_frame_ms,
-            summary.files.len(),
-            a.out.display()
+            "contact ({} pass(es), config {}): {} of {} frames in contact; median ms: intersection {:.3}, mapping {:.3}, zones {:.3}, parametrization {:.3}, directions {:.3}, fields {:.3}, deformation {:.3}, wall {:.3}",
+            passes,
+            s.config.as_deref().unwrap_or("none (defaults)"),
+            s.contact_frames,
+            s.frames,
+            t.intersection,
+            t.mapping,
+            t.zones,
+            t.parametrization,
+            t.directions,
+            t.fields,
+            t.deformation,
+            t.wall
         );
     }
     Ok(())
 }
 
-type Written = (Vec<PathBuf>, Vec<f64>);
-
-fn write_obj_frames(
-    a: &Args,
-    rig: &Rig,
-    pre: &Precomputed,
-    animation: Option<usize>,
-    times: &[f64],
-    header: &str,
-    pb: &ProgressBar,
-) -> Result<Written, Box<dyn std::error::Error + Send + Sync>> {
-    for i in 0..times.len() {
-        guard_input(&a.rig, &a.out.join(obj::frame_file_name(i)))?;
+/// Poses frame `i` (with the contact pass when on) and writes its diagnostics if asked.
+fn compute(job: &Job, i: usize, t: f64) -> Result<(Frame, FrameStats), String> {
+    let t0 = Instant::now();
+    let Some(c) = job.contact else {
+        let frame = frames::evaluate(job.rig, job.pre, job.animation, i, t);
+        let ms = t0.elapsed().as_secs_f64() * 1e3;
+        let stats = FrameStats {
+            ms,
+            contacts: 0,
+            timings: None,
+            diagnostics: false,
+        };
+        return Ok((frame, stats));
+    };
+    let cf = contact::run_frame(job.rig, job.pre, &c.pass, job.animation, i, t)?;
+    let ms = t0.elapsed().as_secs_f64() * 1e3;
+    if job.args.diagnostics {
+        let path = job.args.out.join(contact::diagnostics_file_name(i));
+        let d = contact::diagnostics(job.rig, job.pre, &cf);
+        let bytes = serde_json::to_vec(&d).map_err(|e| format!("{}: {e}", path.display()))?;
+        output::write_atomic(&path, &bytes).map_err(|e| format!("{}: {e}", path.display()))?;
     }
-    let results: Vec<(PathBuf, f64)> = times
+    let stats = FrameStats {
+        ms,
+        contacts: cf.output.contacts.len(),
+        timings: Some(cf.output.timings),
+        diagnostics: job.args.diagnostics,
+    };
+    Ok((cf.frame, stats))
+}
+
+type Written = (Vec<PathBuf>, Vec<FrameStats>);
+
+fn guard_outputs(job: &Job, times: &[f64]) -> Result<(), String> {
+    for i in 0..times.len() {
+        guard_input(&job.args.rig, &job.args.out.join(obj::frame_file_name(i)))?;
+        if job.args.diagnostics {
+            let diag = job.args.out.join(contact::diagnostics_file_name(i));
+            guard_input(&job.args.rig, &diag)?;
+        }
+    }
+    Ok(())
+}
+
+fn write_obj_frames(job: &Job, times: &[f64]) -> Result<Written, BoxError> {
+    guard_outputs(job, times)?;
+    let results: Vec<(PathBuf, FrameStats)> = times
         .par_iter()
         .enumerate()
         .map(|(i, &t)| {
-            let path = a.out.join(obj::frame_file_name(i));
-            let t0 = Instant::now();
-            let frame = frames::evaluate(rig, pre, animation, i, t);
-            let ms = t0.elapsed().as_secs_f64() * 1e3;
-            output::write_atomic(&path, obj::frame_to_obj(rig, &frame, header).as_bytes())
+            let path = job.args.out.join(obj::frame_file_name(i));
+            let (frame, stats) = compute(job, i, t)?;
+            let text = obj::frame_to_obj(job.rig, &frame, &job.header);
+            output::write_atomic(&path, text.as_bytes())
                 .map_err(|e| format!("{}: {e}", path.display()))?;
-            pb.inc(1);
-            Ok((path, ms))
+            job.pb.inc(1);
+            Ok((path, stats))
         })
         .collect::<Result<_, String>>()?;
     Ok(results.into_iter().unzip())
 }
 
-fn write_glb(
-    a: &Args,
-    rig: &Rig,
-    pre: &Precomputed,
-    animation: Option<usize>,
-    times: &[f64],
-    pb: &ProgressBar,
-) -> Result<Written, Box<dyn std::error::Error + Send + Sync>> {
+fn write_glb(job: &Job, times: &[f64]) -> Result<Written, BoxError> {
+    let a = job.args;
     let stem = a
         .rig
         .file_stem()
         .map_or("rig".into(), |s| s.to_string_lossy().to_string());
     let path = a.out.join(format!("{stem}.baked.glb"));
     guard_input(&a.rig, &path)?;
-    let timed: Vec<(Frame, f64)> = times
+    if a.diagnostics {
+        guard_outputs(job, times)?;
+    }
+    let computed: Vec<(Frame, FrameStats)> = times
         .par_iter()
         .enumerate()
         .map(|(i, &t)| {
-            let t0 = Instant::now();
-            let f = frames::evaluate(rig, pre, animation, i, t);
-            pb.inc(1);
-            (f, t0.elapsed().as_secs_f64() * 1e3)
+            let r = compute(job, i, t);
+            job.pb.inc(1);
+            r
         })
-        .collect();
-    let (frames, ms): (Vec<Frame>, Vec<f64>) = timed.into_iter().unzip();
-    let bytes = glb::bake(rig, &frames, &stem)?;
+        .collect::<Result<_, String>>()?;
+    let (frames, stats): (Vec<Frame>, Vec<FrameStats>) = computed.into_iter().unzip();
+    let bytes = glb::bake(job.rig, &frames, &stem)?;
     output::write_atomic(&path, &bytes).map_err(|e| format!("{}: {e}", path.display()))?;
-    Ok((vec![path], ms))
-}
-
-/// Median of a list (0 for an empty one).
-pub fn median(mut v: Vec<f64>) -> f64 {
-    if v.is_empty() {
-        return 0.0;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
+    Ok((vec![path], stats))
 }

@@ -699,6 +699,17 @@ pub fn residual_penetration(
     normals: &[Vector3<f64>],
     h: f64,
 ) -> Penetration {
+    penetration_labeled(scene_positions, scene_triangles, normals, h, None)
+}
+
+/// [`residual_penetration`] with optional body labels per vertex (bodies are never joined).
+fn penetration_labeled(
+    scene_positions: &[Point3<f64>],
+    scene_triangles: &[[u32; 3]],
+    normals: &[Vector3<f64>],
+    h: f64,
+    labels: Option<&[u32]>,
+) -> Penetration {
     let positions = scene_positions;
     let triangles = scene_triangles;
     let nv = positions.len();
@@ -756,7 +767,7 @@ pub fn residual_penetration(
     }
 
     // Depths.
-    let topo = Topology::new(positions, triangles, &valid);
+    let topo = Topology::new(positions, triangles, &valid, labels);
     let face_normals: Vec<Vector3<f64>> = triangles
         .iter()
         .map(|t| {
@@ -812,10 +823,12 @@ pub fn residual_penetration_bodies(bodies: &[Body<'_>], h: f64) -> Penetration {
     let mut positions = Vec::new();
     let mut triangles = Vec::new();
     let mut normals = Vec::new();
-    for (p, t, n) in bodies {
+    let mut labels: Vec<u32> = Vec::new();
+    for (b, (p, t, n)) in bodies.iter().enumerate() {
         let offset = positions.len();
         let count = p.len();
         positions.extend_from_slice(p);
+        labels.extend(std::iter::repeat_n(b as u32, count));
         normals.extend((0..count).map(|i| {
             n.get(i)
                 .copied()
@@ -831,7 +844,7 @@ pub fn residual_penetration_bodies(bodies: &[Body<'_>], h: f64) -> Penetration {
             })
         }));
     }
-    residual_penetration(&positions, &triangles, &normals, h)
+    penetration_labeled(&positions, &triangles, &normals, h, Some(&labels))
 }
 
 /// Mean edge length over the valid faces (0 without any).
@@ -869,17 +882,26 @@ struct Topology {
 }
 
 impl Topology {
-    fn new(positions: &[Point3<f64>], triangles: &[[u32; 3]], valid: &[bool]) -> Self {
-        let mut map: HashMap<[u64; 3], u32> = HashMap::with_capacity(positions.len());
+    /// `labels` (one per vertex) keeps vertices of different bodies apart even where their
+    /// positions coincide exactly (two surfaces touching at a vertex).
+    fn new(
+        positions: &[Point3<f64>],
+        triangles: &[[u32; 3]],
+        valid: &[bool],
+        labels: Option<&[u32]>,
+    ) -> Self {
+        let mut map: HashMap<([u64; 3], u32), u32> = HashMap::with_capacity(positions.len());
         let mut count = 0u32;
         let welded: Vec<u32> = positions
             .iter()
-            .map(|p| {
+            .enumerate()
+            .map(|(i, p)| {
                 if !finite(p) {
                     count += 1;
                     return count - 1;
                 }
-                let key = [p.x, p.y, p.z].map(|x| (x + 0.0).to_bits());
+                let label = labels.and_then(|l| l.get(i).copied()).unwrap_or(0);
+                let key = ([p.x, p.y, p.z].map(|x| (x + 0.0).to_bits()), label);
                 *map.entry(key).or_insert_with(|| {
                     count += 1;
                     count - 1
