@@ -1,10 +1,15 @@
 //! `contact-skin demo`: the built-in scenes end to end. Each scene is generated in memory
 //! (the same bytes as `rigs/`), posed through every animation with LBS, DQS and CoR, baked to a
 //! glb per method, the LBS frames of the first animation written as OBJ, and a table of timings
-//! and volume changes printed (and saved as `summary.json`).
+//! and volume changes printed (and saved as `summary.json`). The scenes of separate objects
+//! also go through the contact pass (LBS input, first animation): OBJ frames, a baked glb,
+//! frames in contact, residual penetration before and after, volume error and timings.
 
-use super::contact::median;
+use super::contact::{self, median, median_stages, ContactFrame, ContactRun, StageMs};
 use super::CliResult;
+use contact_skin::mesh::operators::{mean_edge_length, vertex_normals, NormalWeighting};
+use contact_skin::report::metrics;
+use nalgebra::Point3;
 use contact_skin::frames::{self, Frame, Precomputed};
 use contact_skin::mesh::signed_volume;
 use contact_skin::output::{self, glb, obj};
@@ -46,18 +51,67 @@ struct Row {
     glb: String,
 }
 
+/// Residual penetration of a frame (`MEASURING.md`), depth in units of `h`.
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+struct PenetrationRow {
+    /// Penetrating (welded) vertices.
+    vertices: usize,
+    /// Largest depth / `h`.
+    max_depth_h: f64,
+}
+
+/// The contact pass on one scene.
+#[derive(Serialize)]
+struct ContactRow {
+    scene: String,
+    /// `resolved`, or `not yet (self-contact)` for single-body scenes.
+    status: String,
+    #[serde(flatten)]
+    result: Option<ContactResult>,
+}
+
+/// What the contact pass did on a scene of separate objects.
+#[derive(Serialize)]
+struct ContactResult {
+    animation: String,
+    frames: usize,
+    /// Frames where the pass found a contact.
+    contact_frames: usize,
+    /// `h`: rest mean edge length.
+    h: f64,
+    /// The frame whose skinning input penetrates deepest.
+    deepest_frame: usize,
+    penetration_before: PenetrationRow,
+    penetration_after: PenetrationRow,
+    /// Largest relative volume change of a deformed body (input → output).
+    worst_volume_error: f64,
+    /// Median time per frame: skinning and contact pass (ms).
+    median_frame_ms: f64,
+    /// Median per-stage time of the pass (ms).
+    stage_ms: StageMs,
+    glb: String,
+    obj: String,
+}
+
+/// `summary.json`.
+#[derive(Serialize)]
+struct Summary<'a> {
+    skinning: &'a [Row],
+    contact: &'a [ContactRow],
+}
+
 /// Runs `demo`.
 pub fn run(a: &Args) -> CliResult {
     std::fs::create_dir_all(a.out.join("rigs"))?;
     let pb = if a.json {
         ProgressBar::hidden()
     } else {
-        ProgressBar::new((Scene::ALL.len() * 3) as u64)
+        ProgressBar::new((Scene::ALL.len() * 4) as u64)
     };
     if let Ok(style) = ProgressStyle::with_template("{spinner} demo [{bar:30}] {pos}/{len} {msg}") {
         pb.set_style(style.progress_chars("=> "));
     }
-    let mut rows = Vec::new();
+    let (mut rows, mut contact_rows) = (Vec::new(), Vec::new());
     for scene in Scene::ALL {
         let bytes = scenes::build_glb(scene, scenes::DEFAULT_RESOLUTION)?;
         let rig_path = a.out.join("rigs").join(format!("{}.glb", scene.name()));
@@ -68,16 +122,153 @@ pub fn run(a: &Args) -> CliResult {
             rows.extend(run_scene(a, scene, &rig, method)?);
             pb.inc(1);
         }
+        pb.set_message(format!("{} (contact)", scene.name()));
+        contact_rows.push(run_contact(a, scene, &rig_path, &rig)?);
+        pb.inc(1);
     }
     pb.finish_and_clear();
-    let json = serde_json::to_string_pretty(&rows)?;
+    let summary = Summary {
+        skinning: &rows,
+        contact: &contact_rows,
+    };
+    let json = serde_json::to_string_pretty(&summary)?;
     output::write_atomic(&a.out.join("summary.json"), json.as_bytes())?;
     if a.json {
         println!("{json}");
     } else {
         print_table(&rows, &a.out);
+        print_contact_table(&contact_rows);
     }
     Ok(())
+}
+
+/// The contact pass on a scene of separate objects (LBS input, first animation); single-body
+/// scenes need self-contact, which is not implemented yet.
+fn run_contact(
+    a: &Args,
+    scene: Scene,
+    rig_path: &Path,
+    rig: &Rig,
+) -> Result<ContactRow, Box<dyn std::error::Error + Send + Sync>> {
+    let mut row = ContactRow {
+        scene: scene.name().to_string(),
+        status: "not yet (self-contact)".into(),
+        result: None,
+    };
+    if rig.bodies.len() < 2 || rig.animations.is_empty() {
+        return Ok(row);
+    }
+    let pre = Precomputed::new(rig, Method::Lbs);
+    let run = ContactRun::new(rig_path, rig, &pre, None, None)?;
+    let times = frames::sample_times(rig, Some(0), a.frames);
+    let timed: Vec<(ContactFrame, f64)> = times
+        .par_iter()
+        .enumerate()
+        .map(|(i, &t)| {
+            let s = Instant::now();
+            let f = contact::run_frame(rig, &pre, &run.pass, Some(0), i, t)?;
+            Ok((f, s.elapsed().as_secs_f64() * 1e3))
+        })
+        .collect::<Result<_, String>>()?;
+    let dir = a.out.join(scene.name());
+    let anim = rig.animations[0].name.clone().unwrap_or_else(|| "0".into());
+    let glb_path = dir.join(format!("{anim}.contact.glb"));
+    let obj_dir = dir.join("contact_obj");
+    let posed: Vec<Frame> = timed.iter().map(|(f, _)| f.frame.clone()).collect();
+    let title = format!("{} {anim} lbs + contact", scene.name());
+    output::write_atomic(&glb_path, &glb::bake(rig, &posed, &title)?)?;
+    write_obj(&obj_dir, rig, &posed, "demo, lbs + contact")?;
+    let mut result = measure(rig, &pre, &timed);
+    result.animation = anim;
+    result.glb = glb_path.display().to_string();
+    result.obj = obj_dir.display().to_string();
+    row.status = "resolved".into();
+    row.result = Some(result);
+    Ok(row)
+}
+
+/// Frames in contact, penetration at the deepest input frame, volume error and timings.
+fn measure(rig: &Rig, pre: &Precomputed, timed: &[(ContactFrame, f64)]) -> ContactResult {
+    let rest = contact::rest_welded(rig, pre);
+    let tris: Vec<&[[u32; 3]]> = pre.welded.iter().map(|w| w.triangles.as_slice()).collect();
+    let h = rest
+        .iter()
+        .zip(&tris)
+        .map(|(p, t)| mean_edge_length(p, t))
+        .sum::<f64>()
+        / rest.len().max(1) as f64;
+    let inputs: Vec<Vec<Vec<Point3<f64>>>> = timed
+        .iter()
+        .map(|(f, _)| contact::welded(&f.input, pre))
+        .collect();
+    let before: Vec<PenetrationRow> = inputs
+        .par_iter()
+        .map(|p| penetration(p, &tris, h))
+        .collect();
+    let deepest = (0..before.len())
+        .max_by(|&x, &y| before[x].max_depth_h.total_cmp(&before[y].max_depth_h).then(y.cmp(&x)))
+        .unwrap_or(0);
+    let worst_volume_error = timed
+        .iter()
+        .zip(&inputs)
+        .map(|((f, _), input)| volume_error(input, &f.output, &tris))
+        .fold(0.0, f64::max);
+    ContactResult {
+        animation: String::new(),
+        frames: timed.len(),
+        contact_frames: timed
+            .iter()
+            .filter(|(f, _)| !f.output.contacts.is_empty())
+            .count(),
+        h,
+        deepest_frame: deepest,
+        penetration_before: before.get(deepest).copied().unwrap_or_default(),
+        penetration_after: timed
+            .get(deepest)
+            .map(|(f, _)| penetration(&f.output.positions, &tris, h))
+            .unwrap_or_default(),
+        worst_volume_error,
+        median_frame_ms: median(timed.iter().map(|(_, ms)| *ms).collect()),
+        stage_ms: median_stages(&timed.iter().map(|(f, _)| f.output.timings).collect::<Vec<_>>()),
+        glb: String::new(),
+        obj: String::new(),
+    }
+}
+
+fn penetration(positions: &[Vec<Point3<f64>>], tris: &[&[[u32; 3]]], h: f64) -> PenetrationRow {
+    let normals: Vec<_> = positions
+        .iter()
+        .zip(tris)
+        .map(|(p, t)| vertex_normals(p, t, NormalWeighting::Area))
+        .collect();
+    let bodies: Vec<metrics::Body> = positions
+        .iter()
+        .zip(tris)
+        .zip(&normals)
+        .map(|((p, t), n)| (p.as_slice(), *t, n.as_slice()))
+        .collect();
+    let p = metrics::residual_penetration_bodies(&bodies, h);
+    PenetrationRow {
+        vertices: p.vertices,
+        max_depth_h: p.max_depth / h,
+    }
+}
+
+/// Largest relative volume change of a deformed body in one frame.
+fn volume_error(
+    input: &[Vec<Point3<f64>>],
+    out: &contact_skin::pass::PassOutput,
+    tris: &[&[[u32; 3]]],
+) -> f64 {
+    (0..input.len())
+        .filter(|&b| out.diagnostics[b].stats.is_some())
+        .map(|b| {
+            metrics::volume_error(
+                signed_volume(&input[b], tris[b]),
+                signed_volume(&out.positions[b], tris[b]),
+            )
+        })
+        .fold(0.0, f64::max)
 }
 
 fn run_scene(
@@ -115,7 +306,7 @@ fn run_scene(
             )?,
         )?;
         if method == Method::Lbs && ai == 0 {
-            write_obj(&dir.join("obj"), rig, &frames)?;
+            write_obj(&dir.join("obj"), rig, &frames, "demo, lbs")?;
         }
         rows.push(Row {
             scene: scene.name().to_string(),
@@ -132,12 +323,12 @@ fn run_scene(
     Ok(rows)
 }
 
-fn write_obj(dir: &Path, rig: &Rig, frames: &[Frame]) -> std::io::Result<()> {
+fn write_obj(dir: &Path, rig: &Rig, frames: &[Frame], header: &str) -> std::io::Result<()> {
     std::fs::create_dir_all(dir)?;
     frames.par_iter().try_for_each(|f| {
         output::write_atomic(
             &dir.join(obj::frame_file_name(f.index)),
-            obj::frame_to_obj(rig, f, "demo, lbs").as_bytes(),
+            obj::frame_to_obj(rig, f, header).as_bytes(),
         )
     })
 }
@@ -184,7 +375,38 @@ fn print_table(rows: &[Row], out: &Path) {
         "wrote rigs, baked glb per scene/animation/method, LBS OBJ frames and summary.json to {}",
         out.display()
     );
+}
+
+fn print_contact_table(rows: &[ContactRow]) {
+    println!();
     println!(
-        "(contact resolution is not built yet: these are the skinning inputs of the contact pass)"
+        "{:<16} {:<8} {:>13} {:>26} {:>10} {:>9} {:>9}",
+        "scene", "anim", "contact/frames", "penetration before -> after", "max |dV|/V", "ms/frame", "pass ms"
+    );
+    for r in rows {
+        let Some(c) = &r.result else {
+            println!("{:<16} contact: {}", r.scene, r.status);
+            continue;
+        };
+        let (b, f) = (c.penetration_before, c.penetration_after);
+        println!(
+            "{:<16} {:<8} {:>6}/{:<7} {:>26} {:>9.1e} {:>9.2} {:>9.2}",
+            r.scene,
+            c.animation,
+            c.contact_frames,
+            c.frames,
+            format!(
+                "{} v {:.2}h -> {} v {:.2}h",
+                b.vertices, b.max_depth_h, f.vertices, f.max_depth_h
+            ),
+            c.worst_volume_error,
+            c.median_frame_ms,
+            c.stage_ms.wall
+        );
+    }
+    println!(
+        "(contact: LBS input, first animation; penetration at the frame whose input is deepest, \
+         in penetrating vertices and depth / h; OBJ frames in <scene>/contact_obj, baked \
+         <scene>/<anim>.contact.glb)"
     );
 }

@@ -21,13 +21,16 @@ pub struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
-    /// Describe a rig: meshes, vertices, joints, animations, welded seams and problems found.
+    /// Describe a rig: meshes, vertices, joints, animations, welded seams, problems found, and
+    /// its contact configuration resolved (objects and pairs).
     Info(info::Args),
-    /// Pose a rig through an animation and write the frames (OBJ per frame, or one baked glb).
+    /// Pose a rig through an animation, resolve the contacts between its objects (unless
+    /// --no-contact) and write the frames (OBJ per frame, or one baked glb).
     Pose(pose::Args),
     /// Write the procedural test scenes (bending capsule, finger, mouth, ...) as glb files.
     Generate(GenerateArgs),
-    /// Run the built-in scenes end to end and print what was done, with timings and metrics.
+    /// Run the built-in scenes end to end (skinning, and the contact pass on the scenes of
+    /// separate objects) and print what was done, with timings and metrics.
     Demo(demo::Args),
 }
 

@@ -23,7 +23,6 @@ use super::profile::{bulge_basis, Profile};
 use super::volume::{moved_faces, RootChoice, RootKind, VolumeCubic, VolumeError};
 use crate::contact::{ContactSide, SurfaceSample};
 use crate::heat::{Boundary, EdgePoint, HeatError, HeatParams, RegionSolver};
-use crate::mesh::operators::{face_geometry, lumped_mass};
 use crate::mesh::Region;
 use crate::solve::SolveError;
 use nalgebra::{Point3, Vector3};
@@ -665,6 +664,36 @@ fn zone_sample(contacts: &[&ContactSide], v: usize) -> Option<SurfaceSample> {
         .max_by(|x, y| x.depth.total_cmp(&y.depth))
 }
 
+/// `A_j`: a third of the area of the faces around each zone vertex (local indices; 0 for
+/// other vertices, which are not needed).
+fn zone_areas(
+    region: &Region,
+    local_pos: &[Point3<f64>],
+    contacts: &[&ContactSide],
+    local_of: &[u32],
+) -> Vec<f64> {
+    let mut in_zone = vec![false; region.vertex_count()];
+    for c in contacts {
+        for &v in &c.zone.vertices {
+            if let Some(&l) = local_of.get(v as usize).filter(|&&l| l != u32::MAX) {
+                in_zone[l as usize] = true;
+            }
+        }
+    }
+    let mut area = vec![0.0; region.vertex_count()];
+    for t in &region.triangles {
+        if !t.iter().any(|&v| in_zone[v as usize]) {
+            continue;
+        }
+        let [a, b, c] = t.map(|v| local_pos[v as usize]);
+        let third = (b - a).cross(&(c - a)).norm() / 6.0;
+        for &v in t {
+            area[v as usize] += third;
+        }
+    }
+    area
+}
+
 /// Eq. 7 at the deformable vertices, from every zone vertex of every contact.
 fn bulge_map(
     wr: &WorkingRegion,
@@ -674,8 +703,7 @@ fn bulge_map(
 ) -> Vec<f64> {
     let region = wr.region();
     let local_pos = region.gather(frame.positions);
-    let geometry = face_geometry(&local_pos, &region.triangles);
-    let area = lumped_mass(region.vertex_count(), &region.triangles, &geometry);
+    let area = zone_areas(region, &local_pos, frame.contacts, &wr.local_of);
     let mut samples = Vec::new();
     for c in frame.contacts {
         for &v in &c.zone.vertices {

@@ -127,19 +127,24 @@ pub fn vertex_normals(
     let mut n = vec![Vector3::zeros(); positions.len()];
     for t in triangles {
         let p = t.map(|i| positions[i as usize]);
-        let g = FaceGeometry::new(p);
-        if g.is_degenerate() {
+        let e = [p[2] - p[1], p[0] - p[2], p[1] - p[0]];
+        let cross = e[2].cross(&(-e[1]));
+        let double_area = cross.norm();
+        let longest = e.iter().map(|v| v.norm_squared()).fold(0.0, f64::max);
+        // The same degeneracy test as `FaceGeometry::new`.
+        if !(double_area.is_finite() && double_area > 2.0 * DEGENERATE_AREA * longest) {
             continue;
         }
+        let unit = cross / double_area;
         for k in 0..3 {
             let w = match weighting {
-                NormalWeighting::Area => g.area,
+                NormalWeighting::Area => 0.5 * double_area,
                 NormalWeighting::Angle => {
                     let (a, b) = (p[(k + 1) % 3] - p[k], p[(k + 2) % 3] - p[k]);
                     a.angle(&b)
                 }
             };
-            n[t[k] as usize] += g.normal * w;
+            n[t[k] as usize] += unit * w;
         }
     }
     for v in &mut n {
