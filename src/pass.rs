@@ -544,6 +544,7 @@ impl ContactPass {
             triangles: &b.triangles,
             contacts: &sides,
             painted: self.params[body].painted.as_deref(),
+            direction_field: None,
         };
         deform_region(&b.region, &frame, &b.deform)
             .map(Some)

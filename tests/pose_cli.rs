@@ -225,3 +225,368 @@ fn bad_rig_gives_a_clear_error_and_exit_code() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+// ---------------------------------------------------------------------------------------------
+// The contact pass (on by default)
+
+#[path = "common/scenes.rs"]
+mod scenes;
+
+use nalgebra::Point3;
+use serde_json::Value;
+
+fn committed(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("rigs")
+        .join(format!("{name}.glb"))
+}
+
+/// The file positions of every body of an OBJ frame (split by the rig's vertex counts).
+fn obj_bodies(path: &Path, rig: &rig::Rig) -> Vec<Vec<Point3<f64>>> {
+    let text = std::fs::read_to_string(path).expect("frame");
+    let all: Vec<Point3<f64>> = obj_vertices(&text)
+        .into_iter()
+        .map(|v| Point3::new(v[0], v[1], v[2]))
+        .collect();
+    assert_eq!(all.len(), rig.vertex_count());
+    let mut start = 0;
+    rig.bodies
+        .iter()
+        .map(|b| {
+            let part = all[start..start + b.vertex_count()].to_vec();
+            start += b.vertex_count();
+            part
+        })
+        .collect()
+}
+
+fn welded(l: &scenes::Loaded, bodies: &[Vec<Point3<f64>>]) -> Vec<Vec<Point3<f64>>> {
+    bodies
+        .iter()
+        .zip(&l.pre.welded)
+        .map(|(p, w)| w.gather(p))
+        .collect()
+}
+
+fn read_json(path: &Path) -> Value {
+    serde_json::from_slice(&std::fs::read(path).expect("json file")).expect("valid JSON")
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().expect("utf8")
+}
+
+const CONTACT_FRAMES: usize = 13;
+
+#[test]
+fn contact_resolves_the_capsule_pair_and_does_not_depend_on_threads() {
+    let l = scenes::load("capsule_pair", CONTACT_FRAMES);
+    let rig_path = committed("capsule_pair");
+    let (a, b, plain) = (tmp("c1"), tmp("c2"), tmp("c0"));
+    let n = CONTACT_FRAMES.to_string();
+    let out = pose(&[
+        "--threads",
+        "1",
+        "pose",
+        s(&rig_path),
+        "--out",
+        s(&a),
+        "--frames",
+        &n,
+        "--json",
+        "--diagnostics",
+    ]);
+    pose(&[
+        "--threads",
+        "2",
+        "pose",
+        s(&rig_path),
+        "--out",
+        s(&b),
+        "--frames",
+        &n,
+    ]);
+    pose(&[
+        "pose",
+        s(&rig_path),
+        "--out",
+        s(&plain),
+        "--frames",
+        &n,
+        "--no-contact",
+    ]);
+    let summary: Value = serde_json::from_slice(&out.stdout).expect("JSON summary");
+    assert_eq!(summary["contact"], true);
+    assert_eq!(summary["config"], Value::Null);
+    assert_eq!(summary["passes"], 2);
+    for stage in [
+        "intersection",
+        "mapping",
+        "zones",
+        "parametrization",
+        "directions",
+        "fields",
+        "deformation",
+        "wall",
+    ] {
+        assert!(summary["stage_ms"][stage].as_f64().expect(stage) >= 0.0);
+    }
+    let (mut in_contact, mut before_total, mut after_total) = (0, 0, 0);
+    for i in 0..CONTACT_FRAMES {
+        let name = format!("frame_{i:04}.obj");
+        let bytes = std::fs::read(a.join(&name)).expect("frame");
+        assert_eq!(
+            bytes,
+            std::fs::read(b.join(&name)).expect("frame"),
+            "{name}: threads"
+        );
+        let contact = obj_bodies(&a.join(&name), &l.rig);
+        let skinned = obj_bodies(&plain.join(&name), &l.rig);
+        let diag = read_json(&a.join(format!("frame_{i:04}.diag.json")));
+        let has_contact = !diag["contacts"].as_array().expect("contacts").is_empty();
+        let before = l.penetration(&welded(&l, &skinned)).vertices;
+        let after = l.penetration(&welded(&l, &contact)).vertices;
+        println!("frame {i}: contact {has_contact}, penetrating vertices {before} -> {after}");
+        if has_contact {
+            in_contact += 1;
+            assert_ne!(contact, skinned, "{name}: the pass must move the bodies");
+        } else {
+            assert_eq!(contact, skinned, "{name}: without contact, plain skinning");
+        }
+        if before > 0 {
+            assert!(has_contact, "{name}: penetrating input without a contact");
+            assert!(
+                after < before,
+                "{name}: {before} -> {after} penetrating vertices"
+            );
+        }
+        before_total += before;
+        after_total += after;
+    }
+    assert!(in_contact > 0 && before_total > 0);
+    assert!(
+        after_total * 10 < before_total,
+        "{before_total} -> {after_total}"
+    );
+    assert_eq!(summary["contact_frames"], in_contact);
+    for d in [&a, &b, &plain] {
+        let _ = std::fs::remove_dir_all(d);
+    }
+}
+
+#[test]
+fn diagnostics_hold_the_documented_fields() {
+    let l = scenes::load("capsule_pair", 7);
+    let rig_path = committed("capsule_pair");
+    let (diag_dir, plain) = (tmp("diag"), tmp("diag0"));
+    pose(&[
+        "pose",
+        s(&rig_path),
+        "--out",
+        s(&diag_dir),
+        "--frames",
+        "7",
+        "--diagnostics",
+    ]);
+    pose(&[
+        "pose",
+        s(&rig_path),
+        "--out",
+        s(&plain),
+        "--frames",
+        "7",
+        "--no-contact",
+    ]);
+    assert!(!diag_dir.join("frame_0007.diag.json").exists());
+    assert!(!plain.join("frame_0000.diag.json").exists());
+    let mut deformed = 0;
+    for i in 0..7 {
+        let d = read_json(&diag_dir.join(format!("frame_{i:04}.diag.json")));
+        assert_eq!(d["frame"], i);
+        assert_eq!(d["time"].as_f64(), Some(l.times[i]));
+        for key in [
+            "setup",
+            "intersection",
+            "mapping",
+            "zones",
+            "parametrization",
+            "directions",
+            "fields",
+            "deformation",
+            "wall",
+        ] {
+            assert!(d["timings_s"][key].is_number(), "timings_s.{key}");
+        }
+        let out = obj_bodies(&diag_dir.join(format!("frame_{i:04}.obj")), &l.rig);
+        let input = obj_bodies(&plain.join(format!("frame_{i:04}.obj")), &l.rig);
+        let bodies = d["bodies"].as_array().expect("bodies");
+        assert_eq!(bodies.len(), l.rig.bodies.len());
+        for (bi, body) in bodies.iter().enumerate() {
+            check_body(body, bi, &l, &out[bi], &input[bi]);
+            deformed += usize::from(body["deformed"] == true);
+        }
+        for c in d["contacts"].as_array().expect("contacts") {
+            let pair: Vec<usize> = serde_json::from_value(c["bodies"].clone()).expect("bodies");
+            let sizes: Vec<usize> = serde_json::from_value(c["zone_sizes"].clone()).expect("sizes");
+            let dir: Vec<f64> = serde_json::from_value(c["direction"].clone()).expect("dir");
+            let norm = dir.iter().map(|x| x * x).sum::<f64>().sqrt();
+            assert!((norm - 1.0).abs() < 1e-9, "unit direction");
+            for key in ["threshold", "mean_depth", "depth_deviation"] {
+                assert!(c[key].as_f64().expect(key).is_finite(), "{key}");
+            }
+            for k in 0..2 {
+                assert_eq!(c["names"][k], l.rig.bodies[pair[k]].name.as_str());
+                // One contact per body here: its zone is the body's zone (no seams).
+                let zone = &bodies[pair[k]]["zone"];
+                let ones = zone
+                    .as_array()
+                    .expect("zone")
+                    .iter()
+                    .filter(|z| **z == 1)
+                    .count();
+                assert_eq!(ones, sizes[k]);
+            }
+        }
+    }
+    assert!(deformed > 0, "some frame deforms a body");
+    let _ = std::fs::remove_dir_all(&diag_dir);
+    let _ = std::fs::remove_dir_all(&plain);
+}
+
+/// One body of a diagnostics file: every array has one entry per file vertex, the
+/// displacement is output − input.
+fn check_body(
+    body: &Value,
+    bi: usize,
+    l: &scenes::Loaded,
+    out: &[Point3<f64>],
+    input: &[Point3<f64>],
+) {
+    let n = l.rig.bodies[bi].vertex_count();
+    assert_eq!(body["index"], bi);
+    assert_eq!(body["name"], l.rig.bodies[bi].name.as_str());
+    assert_eq!(body["vertices"], n);
+    for key in ["u", "zone", "displacement", "amplitude", "slope", "bulge"] {
+        assert_eq!(body[key].as_array().expect(key).len(), n, "{key}");
+    }
+    let zone: Vec<u8> = serde_json::from_value(body["zone"].clone()).expect("zone");
+    assert!(zone.iter().all(|&z| z <= 1));
+    let u: Vec<f64> = serde_json::from_value(body["u"].clone()).expect("u");
+    if body["deformed"] == false {
+        assert!(u.iter().all(|&x| x == 1.0) && zone.iter().all(|&z| z == 0));
+    }
+    let disp: Vec<[f64; 3]> = serde_json::from_value(body["displacement"].clone()).expect("d");
+    for v in 0..n {
+        for c in 0..3 {
+            let expected = out[v][c] - input[v][c];
+            assert!(
+                (disp[v][c] - expected).abs() < 1e-5,
+                "displacement of vertex {v}"
+            );
+        }
+    }
+}
+
+#[test]
+fn a_painted_map_of_zeros_removes_the_bulge_of_its_body() {
+    let dir = tmp("painted");
+    std::fs::create_dir_all(&dir).expect("dir");
+    let rig_path = dir.join("capsule_pair.glb");
+    std::fs::copy(committed("capsule_pair"), &rig_path).expect("copy");
+    let l = scenes::load("capsule_pair", 7);
+    let lower = l
+        .rig
+        .bodies
+        .iter()
+        .position(|b| b.name == "capsule_lower")
+        .expect("body");
+    let zeros = vec!["0"; l.rig.bodies[lower].vertex_count()].join("\n");
+    std::fs::write(dir.join("zeros.txt"), zeros).expect("map");
+    let config = dir.join("capsule_pair.contact.toml");
+    std::fs::write(
+        &config,
+        "[[object]]\nname = \"capsule_lower\"\nbulge_map = \"zeros.txt\"\n",
+    )
+    .expect("config");
+    let (painted, plain) = (dir.join("painted"), dir.join("default"));
+    let out = pose(&[
+        "pose",
+        s(&rig_path),
+        "--out",
+        s(&painted),
+        "--frames",
+        "7",
+        "--diagnostics",
+        "--json",
+    ]);
+    let summary: Value = serde_json::from_slice(&out.stdout).expect("summary");
+    assert_eq!(
+        summary["config"],
+        s(&config),
+        "the rig's own config is found"
+    );
+    pose(&[
+        "pose",
+        s(&committed("capsule_pair")),
+        "--out",
+        s(&plain),
+        "--frames",
+        "7",
+        "--diagnostics",
+    ]);
+    let (mut changed, mut bulged) = (0, 0);
+    for i in 0..7 {
+        let p = obj_bodies(&painted.join(format!("frame_{i:04}.obj")), &l.rig);
+        let q = obj_bodies(&plain.join(format!("frame_{i:04}.obj")), &l.rig);
+        changed += usize::from(p[lower] != q[lower]);
+        let dp = read_json(&painted.join(format!("frame_{i:04}.diag.json")));
+        let dq = read_json(&plain.join(format!("frame_{i:04}.diag.json")));
+        let bulge = |d: &Value| -> f64 {
+            let b: Vec<[f64; 3]> =
+                serde_json::from_value(d["bodies"][lower]["bulge"].clone()).expect("bulge");
+            b.iter().flatten().fold(0.0, |m, x| m.max(x.abs()))
+        };
+        assert_eq!(bulge(&dp), 0.0, "frame {i}: no bulge where the map is 0");
+        bulged += usize::from(bulge(&dq) > 0.0);
+    }
+    assert!(bulged > 0, "the default map bulges");
+    assert!(changed > 0, "the painted map changes the body's output");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_missing_config_is_a_clear_error() {
+    let dir = tmp("noconfig");
+    let missing = dir.join("nowhere.contact.toml");
+    let out = Command::new(env!("CARGO_BIN_EXE_contact-skin"))
+        .args([
+            "pose",
+            s(&committed("capsule_pair")),
+            "--out",
+            s(&dir),
+            "--frames",
+            "2",
+            "--config",
+            s(&missing),
+        ])
+        .output()
+        .expect("run");
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.starts_with("error:"), "{err}");
+    assert!(
+        err.contains("nowhere.contact.toml") && err.contains("cannot read"),
+        "{err}"
+    );
+    assert!(
+        !dir.join("frame_0000.obj").exists(),
+        "nothing written on error"
+    );
+    let out = Command::new(env!("CARGO_BIN_EXE_contact-skin"))
+        .args(["pose", s(&committed("capsule_pair")), "--out", s(&dir)])
+        .args(["--no-contact", "--diagnostics"])
+        .output()
+        .expect("run");
+    assert!(!out.status.success(), "--no-contact excludes --diagnostics");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -36,9 +36,8 @@ impl ContactRun {
     ) -> Result<Self, BoxError> {
         let found = ContactConfig::for_rig(rig_path, config)?;
         let used = found.as_ref().map(|c| c.file.clone());
-        let (params, overrides, file_passes) = found
-            .unwrap_or_default()
-            .resolve(rig, &pre.welded)?;
+        let (params, overrides, file_passes) =
+            found.unwrap_or_default().resolve(rig, &pre.welded)?;
         let rest = rest_welded(rig, pre);
         let bodies: Vec<RestBody> = rest
             .iter()
@@ -47,7 +46,12 @@ impl ContactRun {
             .collect();
         let passes = passes.unwrap_or(file_passes).max(1);
         let pass = ContactPass::new(&bodies, params, overrides)
-            .map_err(|e| format!("{}: contact pass: {e}", rig_path.display()))?
+            .map_err(|e| {
+                format!(
+                    "{}: contact pass: {e} (--no-contact writes plain skinning)",
+                    rig_path.display()
+                )
+            })?
             .with_passes(passes);
         Ok(Self {
             pass,
@@ -222,7 +226,10 @@ pub fn diagnostics(rig: &Rig, pre: &Precomputed, c: &ContactFrame) -> FrameDiagn
                 threshold: k.threshold,
                 mean_depth: k.mean_depth,
                 depth_deviation: k.depth_deviation,
-                zone_sizes: [k.sides[0].zone.vertices.len(), k.sides[1].zone.vertices.len()],
+                zone_sizes: [
+                    k.sides[0].zone.vertices.len(),
+                    k.sides[1].zone.vertices.len(),
+                ],
                 direction: [d.x, d.y, d.z],
             }
         })

@@ -7,16 +7,16 @@
 
 use super::contact::{self, median, median_stages, ContactFrame, ContactRun, StageMs};
 use super::CliResult;
-use contact_skin::mesh::operators::{mean_edge_length, vertex_normals, NormalWeighting};
-use contact_skin::report::metrics;
-use nalgebra::Point3;
 use contact_skin::frames::{self, Frame, Precomputed};
+use contact_skin::mesh::operators::{mean_edge_length, vertex_normals, NormalWeighting};
 use contact_skin::mesh::signed_volume;
 use contact_skin::output::{self, glb, obj};
+use contact_skin::report::metrics;
 use contact_skin::rig::{self, Rig};
 use contact_skin::scenes::{self, Scene};
 use contact_skin::skinning::Method;
 use indicatif::{ProgressBar, ProgressStyle};
+use nalgebra::Point3;
 use rayon::prelude::*;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -206,7 +206,12 @@ fn measure(rig: &Rig, pre: &Precomputed, timed: &[(ContactFrame, f64)]) -> Conta
         .map(|p| penetration(p, &tris, h))
         .collect();
     let deepest = (0..before.len())
-        .max_by(|&x, &y| before[x].max_depth_h.total_cmp(&before[y].max_depth_h).then(y.cmp(&x)))
+        .max_by(|&x, &y| {
+            before[x]
+                .max_depth_h
+                .total_cmp(&before[y].max_depth_h)
+                .then(y.cmp(&x))
+        })
         .unwrap_or(0);
     let worst_volume_error = timed
         .iter()
@@ -229,7 +234,12 @@ fn measure(rig: &Rig, pre: &Precomputed, timed: &[(ContactFrame, f64)]) -> Conta
             .unwrap_or_default(),
         worst_volume_error,
         median_frame_ms: median(timed.iter().map(|(_, ms)| *ms).collect()),
-        stage_ms: median_stages(&timed.iter().map(|(f, _)| f.output.timings).collect::<Vec<_>>()),
+        stage_ms: median_stages(
+            &timed
+                .iter()
+                .map(|(f, _)| f.output.timings)
+                .collect::<Vec<_>>(),
+        ),
         glb: String::new(),
         obj: String::new(),
     }
@@ -381,7 +391,13 @@ fn print_contact_table(rows: &[ContactRow]) {
     println!();
     println!(
         "{:<16} {:<8} {:>13} {:>26} {:>10} {:>9} {:>9}",
-        "scene", "anim", "contact/frames", "penetration before -> after", "max |dV|/V", "ms/frame", "pass ms"
+        "scene",
+        "anim",
+        "contact/frames",
+        "penetration before -> after",
+        "max |dV|/V",
+        "ms/frame",
+        "pass ms"
     );
     for r in rows {
         let Some(c) = &r.result else {

@@ -102,22 +102,20 @@ fn describe(rig: &Rig, welded: &[WeldedMesh]) -> RigInfo {
         .bodies
         .iter()
         .zip(welded)
-        .map(|(b, w)| {
-            BodyInfo {
-                name: b.name.clone(),
-                mesh: b.mesh,
-                skin: b.skin,
-                primitives: b.primitives.len(),
-                vertices: b.vertex_count(),
-                welded_vertices: w.vertex_count(),
-                seams_welded: w.seams_welded(),
-                triangles: b.triangles.len(),
-                max_influences: (0..b.vertex_count())
-                    .map(|v| b.weights.row(v).count())
-                    .max()
-                    .unwrap_or(0),
-                topology: w.report.clone(),
-            }
+        .map(|(b, w)| BodyInfo {
+            name: b.name.clone(),
+            mesh: b.mesh,
+            skin: b.skin,
+            primitives: b.primitives.len(),
+            vertices: b.vertex_count(),
+            welded_vertices: w.vertex_count(),
+            seams_welded: w.seams_welded(),
+            triangles: b.triangles.len(),
+            max_influences: (0..b.vertex_count())
+                .map(|v| b.weights.row(v).count())
+                .max()
+                .unwrap_or(0),
+            topology: w.report.clone(),
         })
         .collect();
     let animations = rig
@@ -218,7 +216,10 @@ fn describe_direction(p: &config::PairSpec) -> String {
 }
 
 fn print_contact(c: &ContactInfo) {
-    println!("  contact configuration {} ({} passes per frame):", c.file, c.passes);
+    println!(
+        "  contact configuration {} ({} passes per frame):",
+        c.file, c.passes
+    );
     for o in &c.objects {
         let k = o.stiffness.map_or("rigid".into(), |k| k.to_string());
         let map = match (&o.bulge_map, o.painted_range) {

@@ -4,8 +4,8 @@
 use super::contact::{self, median, median_stages, BoxError, ContactRun, StageMs};
 use super::CliResult;
 use contact_skin::frames::{self, Frame, Precomputed};
-use contact_skin::pass::StageTimings;
 use contact_skin::output::{self, glb, obj};
+use contact_skin::pass::StageTimings;
 use contact_skin::rig::{self, Rig};
 use contact_skin::skinning::Method;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -189,7 +189,13 @@ pub fn run(a: &Args) -> CliResult {
         None
     } else {
         let passes = a.passes.map(|p| p as usize);
-        Some(ContactRun::new(&a.rig, &rig, &pre, a.config.as_deref(), passes)?)
+        Some(ContactRun::new(
+            &a.rig,
+            &rig,
+            &pre,
+            a.config.as_deref(),
+            passes,
+        )?)
     };
     let precompute_ms = t_pre.elapsed().as_secs_f64() * 1e3;
     std::fs::create_dir_all(&a.out)?;

@@ -171,6 +171,10 @@ pub struct DeformStats {
 pub struct RegionDeformation {
     /// Output positions of every mesh vertex (unchanged outside the deformed part).
     pub positions: Vec<Point3<f64>>,
+    /// `P`: the positions without bulge (contact zones on `S`, profiles with `v2 = 0`).
+    pub base: Vec<Point3<f64>>,
+    /// `Q = N_2(t) η d` per mesh vertex: the bulge per unit `h_v`.
+    pub bulge_unit: Vec<Vector3<f64>>,
     /// `u` per mesh vertex (0 in the zones, 1 beyond the extent and outside the region).
     pub u: Vec<f64>,
     /// Per mesh vertex: in a contact zone.
@@ -211,10 +215,66 @@ pub struct RegionFrame<'a> {
     pub contacts: &'a [&'a ContactSide],
     /// Optional painted bulge map per mesh vertex (multiplies `η`; negative allowed).
     pub painted: Option<&'a [f64]>,
+    /// Optional mapping-direction field `d̄` per mesh vertex, replacing the contacts'
+    /// directions (self-contact: `σ d̂_12`, `PIPELINE.md`).
+    pub direction_field: Option<&'a [Vector3<f64>]>,
 }
 
 /// Algorithm Part 2 for one working region.
 pub fn deform_region(
+    wr: &WorkingRegion,
+    frame: &RegionFrame,
+    params: &DeformParams,
+) -> Result<RegionDeformation, DeformError> {
+    let mut out = shape_region(wr, frame, params)?;
+    let start = Instant::now();
+    if wr.closed {
+        let (h, kind) = bulge_height(frame.triangles, frame.positions, &out.base, &out.bulge_unit)?;
+        out.stats.root = Some(kind);
+        apply_bulge(&mut out, h, params.gamma);
+    }
+    out.timings.deformation += start.elapsed().as_secs_f64();
+    Ok(out)
+}
+
+/// The bulge height `h_v` that makes the volume of the closed surface `triangles` with
+/// positions `base + h bulge` equal to that of `rest` (2021 Sec. 5.3: the exact cubic, first
+/// crossing). Without an exact root (deep penetration: the displacement directions of what is
+/// left of the region point inward, so no bulge along them restores the volume), no bulge
+/// (`h = 0`) rather than the closest approach, which can turn faces inside out.
+pub fn bulge_height(
+    triangles: &[[u32; 3]],
+    rest: &[Point3<f64>],
+    base: &[Point3<f64>],
+    bulge: &[Vector3<f64>],
+) -> Result<(f64, RootKind), DeformError> {
+    let faces = moved_faces(triangles, rest, base, bulge);
+    let root = VolumeCubic::assemble(triangles, &faces, rest, base, bulge)?
+        .solve_with(RootChoice::FirstCrossing)?;
+    let h = if root.kind == RootKind::Exact {
+        root.h
+    } else {
+        0.0
+    };
+    Ok((h, root.kind))
+}
+
+/// Lines 58-60: `p' = P + γ h_v Q`.
+pub fn apply_bulge(out: &mut RegionDeformation, h: f64, gamma: f64) {
+    out.stats.bulge_height = h;
+    out.positions = out
+        .base
+        .iter()
+        .zip(&out.bulge_unit)
+        .map(|(p, q)| p + q * (gamma * h))
+        .collect();
+    out.bulge = out.bulge_unit.iter().map(|q| q * h).collect();
+}
+
+/// Algorithm Part 2 without the volume solve (lines 31-56): the displaced positions without
+/// bulge `P` and the bulge vectors `Q` (per unit `h_v`), for callers that solve one volume
+/// over several regions (self-contact, Sec. 6). `positions` holds `P`.
+pub fn shape_region(
     wr: &WorkingRegion,
     frame: &RegionFrame,
     params: &DeformParams,
@@ -240,7 +300,9 @@ pub fn deform_region(
     let t_param = start.elapsed().as_secs_f64();
 
     let dirs = contact_directions(frame.contacts, &points);
-    let dbar = if frame.contacts.len() > 1 {
+    let dbar = if let Some(field) = frame.direction_field {
+        region.gather(field)
+    } else if frame.contacts.len() > 1 {
         problem.harmonic_vector(&dirs)?
     } else {
         vec![dirs.first().copied().unwrap_or_else(Vector3::zeros); region.vertex_count()]
@@ -619,37 +681,16 @@ fn displace(
         let v = region.vertices[l] as usize;
         bulge_dir[v] *= *e;
     }
-    let h = if wr.closed {
-        let faces = moved_faces(frame.triangles, rest, &base, &bulge_dir);
-        let root = VolumeCubic::assemble(frame.triangles, &faces, rest, &base, &bulge_dir)?
-            .solve_with(RootChoice::FirstCrossing)?;
-        stats.root = Some(root.kind);
-        // No exact root (deep penetration: the displacement directions of what is left of the
-        // region point inward, so no bulge along them restores the volume): no bulge rather
-        // than the closest approach, which can turn faces inside out.
-        if root.kind == RootKind::Exact {
-            root.h
-        } else {
-            0.0
-        }
-    } else {
-        0.0
-    };
-    stats.bulge_height = h;
-    let scale = params.gamma * h;
-    let positions = base
-        .iter()
-        .zip(&bulge_dir)
-        .map(|(p, q)| p + q * scale)
-        .collect();
     Ok(RegionDeformation {
-        positions,
+        positions: base.clone(),
+        base,
+        bulge_unit: bulge_dir,
+        bulge: vec![Vector3::zeros(); rest.len()],
         u: Vec::new(),
         zone: Vec::new(),
         direction,
         amplitude: Vec::new(),
         slope: Vec::new(),
-        bulge: bulge_dir.iter().map(|q| q * h).collect(),
         stats: DeformStats::default(),
         timings: DeformTimings::default(),
     })

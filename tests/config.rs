@@ -1,0 +1,596 @@
+//! The rig's contact configuration (`src/config.rs`): parsing, resolution against a rig,
+//! painted bulge maps (text files and glTF vertex attributes), and a typed error naming the
+//! file and the field for every mistake.
+
+use base64::Engine;
+use contact_skin::config::{BodyRef, ConfigError, ContactConfig};
+use contact_skin::mesh::WeldedMesh;
+use contact_skin::pass::{DirectionTrack, ObjectParams, DEFAULT_PASSES};
+use contact_skin::rig::{self, Rig};
+use nalgebra::Vector3;
+use serde_json::{json, Value};
+use std::path::{Path, PathBuf};
+
+/// A fresh temporary folder holding a copy of `rigs/fingertips_ball.glb` (bodies `ball` 1514
+/// vertices, `thumb`, `index`, `middle` 402 each).
+fn scene_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("cs-config-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).expect("temp dir");
+    let rig = Path::new(env!("CARGO_MANIFEST_DIR")).join("rigs/fingertips_ball.glb");
+    std::fs::copy(rig, d.join("fingertips_ball.glb")).expect("copy rig");
+    d
+}
+
+fn load_rig(dir: &Path) -> (Rig, Vec<WeldedMesh>) {
+    let rig = rig::load(&dir.join("fingertips_ball.glb")).expect("rig loads");
+    let welded = rig
+        .bodies
+        .iter()
+        .map(|b| WeldedMesh::weld(&b.positions, &b.triangles))
+        .collect();
+    (rig, welded)
+}
+
+/// Writes `text` as `dir/contact.toml` and loads it.
+fn write_config(dir: &Path, text: &str) -> Result<ContactConfig, ConfigError> {
+    let path = dir.join("contact.toml");
+    std::fs::write(&path, text).expect("write config");
+    ContactConfig::load(&path)
+}
+
+/// Loads and resolves `text` against the scene in `dir`.
+fn resolve(dir: &Path, text: &str) -> Result<contact_skin::config::Resolved, ConfigError> {
+    let cfg = write_config(dir, text)?;
+    let (rig, welded) = load_rig(dir);
+    cfg.resolve(&rig, &welded)
+}
+
+fn zeros_map(n: usize) -> String {
+    let mut s = String::from("# painted bulge map\n");
+    for i in 0..n {
+        s.push_str(if i % 7 == 6 { "0.0\n" } else { "0.0 " });
+    }
+    s
+}
+
+/// The error must name the configuration file and the field.
+fn check_names(e: &ConfigError, dir: &Path, field: &str) {
+    let msg = e.to_string();
+    let file = dir.join("contact.toml");
+    assert!(
+        msg.starts_with(&file.display().to_string()),
+        "'{msg}' should start with the file"
+    );
+    assert_eq!(e.field(), field, "{msg}");
+    assert!(msg.contains(field), "'{msg}' should name {field}");
+}
+
+const FULL: &str = r#"
+passes = 1                      # one pass, as in the paper
+[defaults]
+stiffness = 1.0
+tau = 0.1
+extent = 0.3
+gamma = 1.0
+omega = 2.0
+
+[[object]]
+name = "ball"
+stiffness = 0.5
+bulge_map = "ball_bulge.txt"
+
+[[object]]
+name = 1                        # the thumb, by index
+stiffness = "rigid"
+extent_factor = 0.5
+gamma = 0.0
+
+[[object]]
+name = "3"                      # the middle finger, by index as a string
+omega = 0
+
+[[pair]]
+objects = ["ball", "index"]
+tau = 0.6
+direction = [0.0, 1.0, 0.0]
+
+[[pair]]
+objects = ["middle", "ball"]
+direction_keys = [[1.5, 1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 2.0], [0.5, 0.0, 1, 0]]
+"#;
+
+#[test]
+fn a_full_example_parses_and_resolves() {
+    let dir = scene_dir("full");
+    let mut map = String::from("# ramp over the ball\n");
+    for i in 0..1514 {
+        map.push_str(&format!("{} # vertex {i}\n", i as f64 / 1513.0));
+    }
+    std::fs::write(dir.join("ball_bulge.txt"), map).expect("map");
+    let cfg = write_config(&dir, FULL).expect("parses");
+    assert_eq!(cfg.passes, Some(1));
+    assert_eq!(cfg.objects.len(), 3);
+    assert_eq!(cfg.objects[1].name, BodyRef::Index(1));
+    assert_eq!(cfg.file, dir.join("contact.toml"));
+    let (rig, welded) = load_rig(&dir);
+    let (params, overrides, passes) = cfg.resolve(&rig, &welded).expect("resolves");
+    assert_eq!(passes, 1);
+    assert_eq!(params.len(), 4);
+    // ball: its own stiffness, the defaults for the rest, the painted ramp gathered to welded.
+    let ball = &params[0];
+    assert_eq!(
+        (ball.stiffness, ball.tau, ball.extent),
+        (0.5, 0.1, Some(0.3))
+    );
+    let painted = ball.painted.as_ref().expect("painted map");
+    assert_eq!(painted.len(), welded[0].vertex_count());
+    for (w, &f) in welded[0].representative.iter().enumerate() {
+        assert_eq!(painted[w], f as f64 / 1513.0);
+    }
+    // thumb: rigid, extent from its own factor times the rest diagonal.
+    let thumb = &params[1];
+    assert!(thumb.stiffness.is_infinite());
+    assert_eq!(thumb.gamma, 0.0);
+    let diag = contact_skin::config::rest_diagonals(&rig)[1];
+    assert!((thumb.extent.expect("extent") - 0.5 * diag).abs() < 1e-12);
+    // index: untouched defaults; middle: omega 0 (an integer in the file).
+    assert_eq!(
+        params[2],
+        ObjectParams {
+            tau: 0.1,
+            extent: Some(0.3),
+            ..ObjectParams::default()
+        }
+    );
+    assert_eq!(params[3].omega, 0.0);
+    // pairs: bodies in the file's order, keyed directions sorted by time.
+    assert_eq!(overrides.len(), 2);
+    assert_eq!(overrides[0].bodies, [0, 2]);
+    assert_eq!(overrides[0].tau, Some(0.6));
+    assert_eq!(
+        overrides[0].direction,
+        Some(DirectionTrack::constant(Vector3::new(0.0, 1.0, 0.0)))
+    );
+    assert_eq!(overrides[1].bodies, [3, 0]);
+    assert_eq!(overrides[1].tau, None);
+    let track = overrides[1].direction.as_ref().expect("keyed");
+    let sorted = DirectionTrack::keyed(vec![
+        (0.0, Vector3::new(0.0, 0.0, 2.0)),
+        (0.5, Vector3::new(0.0, 1.0, 0.0)),
+        (1.5, Vector3::new(1.0, 0.0, 0.0)),
+    ])
+    .expect("valid keys");
+    assert_eq!(track, &sorted);
+    assert!(
+        (track.at(-1.0) - Vector3::z()).norm() < 1e-12,
+        "held before"
+    );
+    assert!((track.at(0.5) - Vector3::y()).norm() < 1e-12);
+    assert!((track.at(9.0) - Vector3::x()).norm() < 1e-12, "held after");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn an_empty_file_gives_the_pass_defaults() {
+    let dir = scene_dir("empty");
+    let (params, overrides, passes) = resolve(&dir, "# nothing\n").expect("resolves");
+    assert!(params.iter().all(|p| *p == ObjectParams::default()));
+    assert!(overrides.is_empty());
+    assert_eq!(passes, DEFAULT_PASSES);
+    let inline = ContactConfig::from_str_with_base("[defaults]\ngamma = 2\n", &dir).expect("ok");
+    assert_eq!(inline.defaults.gamma, Some(2.0));
+    assert_eq!(inline.base_dir, dir);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn discovery_finds_the_rig_config_and_an_explicit_missing_file_is_an_error() {
+    let dir = scene_dir("discover");
+    let rig_path = dir.join("fingertips_ball.glb");
+    assert!(ContactConfig::for_rig(&rig_path, None)
+        .expect("no file")
+        .is_none());
+    let own = dir.join("fingertips_ball.contact.toml");
+    std::fs::write(&own, "passes = 3\n").expect("write");
+    let found = ContactConfig::for_rig(&rig_path, None)
+        .expect("ok")
+        .expect("found");
+    assert_eq!((found.passes, found.file), (Some(3), own));
+    let missing = dir.join("missing.toml");
+    match ContactConfig::for_rig(&rig_path, Some(&missing)) {
+        Err(e @ ConfigError::Io { .. }) => {
+            assert!(e.to_string().contains("missing.toml"), "{e}")
+        }
+        other => panic!("expected an Io error, got {other:?}"),
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn unknown_fields_and_wrong_types_are_parse_errors_naming_the_field() {
+    let dir = scene_dir("unknown");
+    let cases = [
+        (
+            "[[object]]\nname = \"ball\"\nstifness = 2\n",
+            "object[0].stifness",
+        ),
+        ("[defaults]\ntau = 0\nbulge = 1\n", "defaults.bulge"),
+        ("colour = 1\n", "colour"),
+        (
+            "[[object]]\nname = \"ball\"\n[[object]]\nname = \"thumb\"\nstiffness = \"soft\"\n",
+            "object[1].stiffness",
+        ),
+        ("[[pair]]\nobjects = [\"ball\"]\n", "pair[0].objects"),
+        ("passes = -1\n", "passes"),
+    ];
+    for (text, field) in cases {
+        let e = write_config(&dir, text).expect_err(text);
+        assert!(matches!(e, ConfigError::Parse { .. }), "{text}: {e:?}");
+        check_names(&e, &dir, field);
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_numbers_are_invalid_and_name_the_field() {
+    let dir = scene_dir("numbers");
+    let cases = [
+        ("[[object]]\nname = \"ball\"\nstiffness = nan\n", "object[0].stiffness"),
+        ("[[object]]\nname = \"ball\"\nstiffness = -1.0\n", "object[0].stiffness"),
+        ("[defaults]\nstiffness = 0\n", "defaults.stiffness"),
+        ("[defaults]\nstiffness = -inf\n", "defaults.stiffness"),
+        ("[defaults]\ntau = inf\n", "defaults.tau"),
+        ("[defaults]\ngamma = nan\n", "defaults.gamma"),
+        ("[defaults]\nomega = -0.5\n", "defaults.omega"),
+        ("[defaults]\nextent = 0.0\n", "defaults.extent"),
+        ("[defaults]\nextent_factor = -2\n", "defaults.extent_factor"),
+        ("[defaults]\nextent = 1\nextent_factor = 0.5\n", "defaults.extent_factor"),
+        ("passes = 0\n", "passes"),
+        ("passes = 1000\n", "passes"),
+        ("[[pair]]\nobjects = [0, 1]\ntau = nan\n", "pair[0].tau"),
+        ("[[pair]]\nobjects = [0, 1]\ndirection = [0, 0, 0]\n", "pair[0].direction"),
+        (
+            "[[pair]]\nobjects = [0, 1]\ndirection = [0, 0, 1]\ndirection_keys = [[0, 1, 0, 0]]\n",
+            "pair[0].direction_keys",
+        ),
+        ("[[pair]]\nobjects = [0, 1]\ndirection_keys = []\n", "pair[0].direction_keys"),
+        (
+            "[[pair]]\nobjects = [0, 1]\ndirection_keys = [[0, 1, 0, 0], [1, 0, 0, 0]]\n",
+            "pair[0].direction_keys[1]",
+        ),
+        (
+            "[[pair]]\nobjects = [0, 1]\ndirection_keys = [[0, 1, 0, 0], [nan, 0, 1, 0]]\n",
+            "pair[0].direction_keys[1]",
+        ),
+        (
+            "[[pair]]\nobjects = [0, 1]\ndirection_keys = [[1, 1, 0, 0], [0, 0, 1, 0], [1, 0, 0, 1]]\n",
+            "pair[0].direction_keys[2]",
+        ),
+        ("[[object]]\nname = 0\nbulge_map = \"attribute:\"\n", "object[0].bulge_map"),
+    ];
+    for (text, field) in cases {
+        let e = write_config(&dir, text).expect_err(text);
+        assert!(matches!(e, ConfigError::Invalid { .. }), "{text}: {e:?}");
+        check_names(&e, &dir, field);
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn unknown_and_duplicate_bodies_are_typed_errors() {
+    let dir = scene_dir("names");
+    let e = resolve(&dir, "[[object]]\nname = \"fingertip_1\"\n").expect_err("unknown");
+    match &e {
+        ConfigError::UnknownBody {
+            name, available, ..
+        } => {
+            assert_eq!(name, "fingertip_1");
+            assert!(available.contains("0 'ball'") && available.contains("3 'middle'"));
+        }
+        other => panic!("{other:?}"),
+    }
+    check_names(&e, &dir, "object[0].name");
+    let e = resolve(&dir, "[[object]]\nname = 4\n").expect_err("index out of range");
+    assert!(matches!(e, ConfigError::UnknownBody { .. }));
+    let e = resolve(&dir, "[[pair]]\nobjects = [\"ball\", \"pinky\"]\n").expect_err("pair");
+    assert!(matches!(e, ConfigError::UnknownBody { .. }));
+    check_names(&e, &dir, "pair[0].objects[1]");
+    // The same body by name and by index.
+    let text = "[[object]]\nname = \"thumb\"\n[[object]]\nname = 1\n";
+    let e = resolve(&dir, text).expect_err("duplicate");
+    match &e {
+        ConfigError::Duplicate { first, what, .. } => {
+            assert_eq!(first, "object[0]");
+            assert!(what.contains("thumb"));
+        }
+        other => panic!("{other:?}"),
+    }
+    check_names(&e, &dir, "object[1].name");
+    let text = "[[pair]]\nobjects = [\"ball\", \"thumb\"]\n[[pair]]\nobjects = [\"thumb\", 0]\n";
+    let e = resolve(&dir, text).expect_err("duplicate pair");
+    assert!(matches!(e, ConfigError::Duplicate { .. }), "{e:?}");
+    check_names(&e, &dir, "pair[1].objects");
+    let e = resolve(&dir, "[[pair]]\nobjects = [\"ball\", 0]\n").expect_err("same body");
+    assert!(matches!(e, ConfigError::Invalid { .. }));
+    check_names(&e, &dir, "pair[0].objects");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bulge_map_files_must_stay_in_the_folder() {
+    let dir = scene_dir("escape");
+    let inner = dir.join("cfg");
+    std::fs::create_dir_all(&inner).expect("dir");
+    std::fs::write(dir.join("outside.txt"), zeros_map(1514)).expect("map");
+    std::fs::write(inner.join("inside.txt"), zeros_map(1514)).expect("map");
+    std::fs::copy(
+        dir.join("fingertips_ball.glb"),
+        inner.join("fingertips_ball.glb"),
+    )
+    .expect("copy");
+    let object = |map: &str| format!("[[object]]\nname = \"ball\"\nbulge_map = '{map}'\n");
+    resolve(&inner, &object("inside.txt")).expect("a sibling map is fine");
+    resolve(&inner, &object("./inside.txt")).expect("./ is fine");
+    let outside = dir.join("outside.txt");
+    let absolute = outside.display().to_string();
+    for bad in [
+        "../outside.txt",
+        "sub/../../outside.txt",
+        absolute.as_str(),
+        "C:/x.txt",
+    ] {
+        let e = resolve(&inner, &object(bad)).expect_err(bad);
+        match &e {
+            ConfigError::BulgeMap { map, message, .. } => {
+                assert_eq!(map, bad);
+                assert!(message.contains("folder"), "{message}");
+            }
+            other => panic!("{bad}: {other:?}"),
+        }
+        check_names(&e, &inner, "object[0].bulge_map");
+    }
+    #[cfg(unix)]
+    {
+        std::os::unix::fs::symlink(&outside, inner.join("link.txt")).expect("symlink");
+        let e = resolve(&inner, &object("link.txt")).expect_err("link out");
+        assert!(matches!(e, ConfigError::BulgeMap { .. }), "{e:?}");
+    }
+    let e = resolve(&inner, &object("missing.txt")).expect_err("missing");
+    assert!(matches!(e, ConfigError::BulgeMap { .. }), "{e:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bulge_map_values_are_counted_and_checked() {
+    let dir = scene_dir("values");
+    let object = "[[object]]\nname = \"ball\"\nbulge_map = \"map.txt\"\n";
+    std::fs::write(dir.join("map.txt"), zeros_map(1513)).expect("map");
+    let e = resolve(&dir, object).expect_err("count");
+    match &e {
+        ConfigError::BulgeCount {
+            expected,
+            got,
+            body,
+            ..
+        } => assert_eq!((*expected, *got, body.as_str()), (1514, 1513, "ball")),
+        other => panic!("{other:?}"),
+    }
+    check_names(&e, &dir, "object[0].bulge_map");
+    for bad in ["nan", "inf", "-inf", "1e999", "zero"] {
+        let mut text = zeros_map(1513);
+        text.push_str(&format!("\n{bad}\n"));
+        std::fs::write(dir.join("map.txt"), text).expect("map");
+        let e = resolve(&dir, object).expect_err(bad);
+        match &e {
+            ConfigError::BulgeMap { message, .. } => assert!(message.contains("line"), "{message}"),
+            other => panic!("{bad}: {other:?}"),
+        }
+        check_names(&e, &dir, "object[0].bulge_map");
+    }
+    std::fs::write(dir.join("map.txt"), zeros_map(1514)).expect("map");
+    let (params, _, _) = resolve(&dir, object).expect("zeros are fine");
+    assert!(params[0]
+        .painted
+        .as_ref()
+        .expect("map")
+        .iter()
+        .all(|&v| v == 0.0));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+// ---------------------------------------------------------------------------------------------
+// `attribute:NAME` maps, read from a small glTF built here
+
+fn f32s(out: &mut Vec<u8>, v: &[f32]) {
+    out.extend(v.iter().flat_map(|x| x.to_le_bytes()));
+}
+
+/// A skinned quad (4 vertices, two seam copies of one corner welded) with custom attributes:
+/// `_BULGE` (SCALAR f32), `_SHADE` (SCALAR normalized u8), `_VEC` (VEC3 f32, ignored), `_RAW`
+/// (SCALAR u8 not normalized, ignored).
+fn attribute_gltf() -> Value {
+    let mut b = Vec::new();
+    // positions @0 (60: 5 vertices, the last a copy of vertex 0)
+    f32s(
+        &mut b,
+        &[0., 0., 0., 1., 0., 0., 1., 1., 0., 0., 1., 0., 0., 0., 0.],
+    );
+    // joints u16 @60 (40), weights @100 (80)
+    for _ in 0..5 {
+        b.extend([0u16, 0, 0, 0].iter().flat_map(|x| x.to_le_bytes()));
+    }
+    for _ in 0..5 {
+        f32s(&mut b, &[1., 0., 0., 0.]);
+    }
+    // indices u16 @180 (12)
+    b.extend([4u16, 1, 2, 0, 2, 3].iter().flat_map(|x| x.to_le_bytes()));
+    // ibm @192 (64)
+    f32s(
+        &mut b,
+        &[
+            1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1.,
+        ],
+    );
+    // _BULGE @256 (20), _VEC @276 (60), _SHADE u8 @336 (5, padded 8), _RAW u8 @344 (5, padded 8)
+    f32s(&mut b, &[0.25, -1.0, 2.0, 0.5, 9.0]);
+    f32s(&mut b, &[0.0; 15]);
+    b.extend([0u8, 51, 102, 255, 0, 0, 0, 0]);
+    b.extend([1u8, 2, 3, 4, 5, 0, 0, 0]);
+    let uri = format!(
+        "data:application/octet-stream;base64,{}",
+        base64::engine::general_purpose::STANDARD.encode(&b)
+    );
+    let view = |o: usize, l: usize| json!({"buffer": 0, "byteOffset": o, "byteLength": l});
+    let acc = |v: usize, c: u32, n: usize, t: &str| json!({"bufferView": v, "componentType": c, "count": n, "type": t});
+    let mut pos = acc(0, 5126, 5, "VEC3");
+    pos["min"] = json!([0, 0, 0]);
+    pos["max"] = json!([1, 1, 0]);
+    let mut shade = acc(7, 5121, 5, "SCALAR");
+    shade["normalized"] = json!(true);
+    json!({
+        "asset": {"version": "2.0"},
+        "scene": 0,
+        "scenes": [{"nodes": [0, 1]}],
+        "nodes": [{"mesh": 0, "skin": 0, "name": "quad"}, {"name": "root"}],
+        "skins": [{"joints": [1], "inverseBindMatrices": 4}],
+        "meshes": [{"primitives": [{
+            "attributes": {"POSITION": 0, "JOINTS_0": 1, "WEIGHTS_0": 2,
+                           "_BULGE": 5, "_VEC": 6, "_SHADE": 7, "_RAW": 8},
+            "indices": 3
+        }]}],
+        "accessors": [pos, acc(1, 5123, 5, "VEC4"), acc(2, 5126, 5, "VEC4"),
+                      acc(3, 5123, 6, "SCALAR"), acc(4, 5126, 1, "MAT4"),
+                      acc(5, 5126, 5, "SCALAR"), acc(6, 5126, 5, "VEC3"), shade,
+                      acc(8, 5121, 5, "SCALAR")],
+        "bufferViews": [view(0, 60), view(60, 40), view(100, 80), view(180, 12), view(192, 64),
+                        view(256, 20), view(276, 60), view(336, 5), view(344, 5)],
+        "buffers": [{"byteLength": b.len(), "uri": uri}]
+    })
+}
+
+#[test]
+fn attribute_maps_come_from_custom_gltf_attributes() {
+    let dir = std::env::temp_dir().join(format!("cs-config-{}-attr", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("dir");
+    let gltf_path = dir.join("quad.gltf");
+    std::fs::write(
+        &gltf_path,
+        serde_json::to_vec(&attribute_gltf()).expect("json"),
+    )
+    .expect("write");
+    let rig = rig::load(&gltf_path).expect("custom attributes load");
+    assert_eq!(
+        rig.extra_attribute(0, "_BULGE"),
+        Some(&[0.25, -1.0, 2.0, 0.5, 9.0][..])
+    );
+    let shade = rig
+        .extra_attribute(0, "_SHADE")
+        .expect("normalized u8 is read");
+    assert!((shade[1] - 0.2).abs() < 1e-12 && shade[3] == 1.0);
+    assert!(rig.extra_attribute(0, "_VEC").is_none());
+    assert!(rig.extra_attribute(0, "_RAW").is_none());
+    for ignored in ["_VEC", "_RAW"] {
+        assert!(
+            rig.warnings
+                .iter()
+                .any(|w| w.contains(ignored) && w.contains("ignored")),
+            "{ignored}: {:?}",
+            rig.warnings
+        );
+    }
+    let welded: Vec<WeldedMesh> = rig
+        .bodies
+        .iter()
+        .map(|b| WeldedMesh::weld(&b.positions, &b.triangles))
+        .collect();
+    assert_eq!(
+        welded[0].vertex_count(),
+        4,
+        "the copy of vertex 0 is welded"
+    );
+    let path = dir.join("contact.toml");
+    std::fs::write(
+        &path,
+        "[[object]]\nname = \"quad\"\nbulge_map = \"attribute:_BULGE\"\n",
+    )
+    .expect("write");
+    let cfg = ContactConfig::load(&path).expect("parses");
+    let (params, _, _) = cfg.resolve(&rig, &welded).expect("resolves");
+    // Welded vertices take the value of their first file copy (vertex 0, not its copy 4).
+    assert_eq!(
+        params[0].painted.as_deref(),
+        Some(&[0.25, -1.0, 2.0, 0.5][..])
+    );
+    std::fs::write(
+        &path,
+        "[[object]]\nname = 0\nbulge_map = \"attribute:_VEC\"\n",
+    )
+    .expect("write");
+    let e = ContactConfig::load(&path)
+        .expect("parses")
+        .resolve(&rig, &welded)
+        .expect_err("ignored attribute");
+    match &e {
+        ConfigError::UnknownAttribute {
+            attribute,
+            available,
+            body,
+            ..
+        } => {
+            assert_eq!((attribute.as_str(), body.as_str()), ("_VEC", "quad"));
+            assert!(available.contains("_BULGE") && available.contains("_SHADE"));
+        }
+        other => panic!("{other:?}"),
+    }
+    assert!(e.to_string().starts_with(&path.display().to_string()));
+    assert_eq!(e.field(), "object[0].bulge_map");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn non_finite_attribute_values_are_refused() {
+    let dir = std::env::temp_dir().join(format!("cs-config-{}-attrnan", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("dir");
+    let mut doc = attribute_gltf();
+    // Re-encode the buffer with a NaN in _BULGE (vertex 2).
+    let uri = doc["buffers"][0]["uri"].as_str().expect("uri").to_string();
+    let payload = uri.split(',').nth(1).expect("payload");
+    let mut bytes = base64::engine::general_purpose::STANDARD
+        .decode(payload)
+        .expect("base64");
+    bytes[264..268].copy_from_slice(&f32::NAN.to_le_bytes());
+    doc["buffers"][0]["uri"] = json!(format!(
+        "data:application/octet-stream;base64,{}",
+        base64::engine::general_purpose::STANDARD.encode(&bytes)
+    ));
+    std::fs::write(
+        dir.join("quad.gltf"),
+        serde_json::to_vec(&doc).expect("json"),
+    )
+    .expect("write");
+    let rig = rig::load(&dir.join("quad.gltf")).expect("loads");
+    let welded: Vec<WeldedMesh> = rig
+        .bodies
+        .iter()
+        .map(|b| WeldedMesh::weld(&b.positions, &b.triangles))
+        .collect();
+    let cfg = ContactConfig::from_str_with_base(
+        "[[object]]\nname = \"quad\"\nbulge_map = \"attribute:_BULGE\"\n",
+        &dir,
+    )
+    .expect("parses");
+    match cfg.resolve(&rig, &welded) {
+        Err(ConfigError::BulgeMap { message, field, .. }) => {
+            assert!(
+                message.contains("vertex 2") && message.contains("not finite"),
+                "{message}"
+            );
+            assert_eq!(field, "object[0].bulge_map");
+        }
+        other => panic!("{other:?}"),
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
