@@ -23,6 +23,7 @@
 //! | evaluation of an animation, frame by frame | [`frames`] |
 //! | OBJ frames and baked glb | [`output`] |
 //! | the procedural test scenes of `rigs/` | [`scenes`] |
+//! | self-contact of adjacent working regions: regions, partition of unity, direction (Sec. 6) | [`selfcontact`] |
 //!
 //! Everything that does not depend on the pose is precomputed once per rig
 //! ([`frames::Precomputed`]); every frame is a pure function of the pose.
@@ -40,5 +41,6 @@ pub mod pass;
 pub mod report;
 pub mod rig;
 pub mod scenes;
+pub mod selfcontact;
 pub mod skinning;
 pub mod solve;

@@ -91,6 +91,8 @@ struct ContactResult {
     stage_ms: StageMs,
     glb: String,
     obj: String,
+    /// The contact configuration used (`<out>/rigs/<scene>.contact.toml` when present).
+    config: Option<String>,
 }
 
 /// `summary.json`.
@@ -182,6 +184,7 @@ fn run_contact(
     result.animation = anim;
     result.glb = glb_path.display().to_string();
     result.obj = obj_dir.display().to_string();
+    result.config = run.config.map(|p| p.display().to_string());
     row.status = "resolved".into();
     row.result = Some(result);
     Ok(row)
@@ -242,6 +245,7 @@ fn measure(rig: &Rig, pre: &Precomputed, timed: &[(ContactFrame, f64)]) -> Conta
         ),
         glb: String::new(),
         obj: String::new(),
+        config: None,
     }
 }
 

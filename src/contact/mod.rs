@@ -144,6 +144,28 @@ pub fn resolve_pair(
     b: SideFrame,
     params: &PairParams,
 ) -> Result<Option<Contact>, ContactError> {
+    resolve(a, b, params, false)
+}
+
+/// [`resolve_pair`] for the two truncated working regions of one mesh (2021 Sec. 6: Sections
+/// 4.2 to 4.4 "carried out on these truncated working regions without any modification"):
+/// both sides are parts of one mesh posed with the same positions (see
+/// [`crate::intersect::MeshIndex::self_contact_parts`]); face pairs sharing a vertex are not
+/// intersections.
+pub fn resolve_self_pair(
+    part1: SideFrame,
+    part2: SideFrame,
+    params: &PairParams,
+) -> Result<Option<Contact>, ContactError> {
+    resolve(part1, part2, params, true)
+}
+
+fn resolve(
+    a: SideFrame,
+    b: SideFrame,
+    params: &PairParams,
+    same_mesh: bool,
+) -> Result<Option<Contact>, ContactError> {
     for s in [&a, &b] {
         let (expected, got) = (s.mesh.positions().len(), s.normals.len());
         if expected != got {
@@ -151,7 +173,11 @@ pub fn resolve_pair(
         }
     }
     let start = Instant::now();
-    let ints = Intersections::between(a.mesh, b.mesh);
+    let ints = if same_mesh {
+        Intersections::self_contact(a.mesh, b.mesh)?
+    } else {
+        Intersections::between(a.mesh, b.mesh)
+    };
     if ints.is_empty() || curve_length(&ints) <= TOUCH_TOLERANCE * reach_of(a.mesh, b.mesh) {
         return Ok(None);
     }

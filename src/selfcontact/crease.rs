@@ -1,0 +1,240 @@
+//! The crease partition of a shared region (2021 Sec. 6 "Crease detection & Partitioning",
+//! `PIPELINE.md` "Self-contact: crease cut"), computed in every frame where the shared region
+//! folds into contact.
+//!
+//! A graph over the vertices of the shared region `R`, solved by min-cut (Boykov-Kolmogorov,
+//! [`crate::mincut`]):
+//! - terminals: vertices of `R` adjacent to `W1 \ R` are tied to W1 (source), those adjacent to
+//!   `W2 \ R` to W2 (sink), with infinite capacity;
+//! - edges: `c_ij = ℓ*_ij (0.1 + min_{x ∈ ij} |n(x)·d̂|)`, so the cut runs along the silhouette
+//!   of `R` seen from `d̂`; `ℓ*_ij` is the length of the dual edge (barycentric: from the edge
+//!   midpoint to the centroids of its faces, always positive), so the balance does not depend on
+//!   the resolution. With `n` interpolated linearly along the edge, the minimum is 0 when the
+//!   sign of `n·d̂` changes, else the smaller end value;
+//! - vertex terms: on the vertices of intersecting faces plus one ring,
+//!   `λ_I A_i |n_i·d̂|` toward the side given by `sign(n_i·d̂)` (`+` means W1, as `d̂` is W1's
+//!   outward direction at the fold); elsewhere `λ_β A_i |2β_i - 1|` toward the side `β`
+//!   prefers; both `λ` scale as `1 / ℓ̄` (mean edge length).
+//!
+//! After the cut, only the components attached to each side's terminals are kept; stray
+//! components switch sides.
+
+use crate::mincut::{min_cut, CutGraph, MinCutError};
+use nalgebra::{Point3, Vector3};
+
+/// Weights of the crease graph.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CreaseParams {
+    /// `λ_I ℓ̄`: weight of the intersection vertex terms.
+    pub intersection_weight: f64,
+    /// `λ_β ℓ̄`: weight of the partition-of-unity terms.
+    pub beta_weight: f64,
+}
+
+impl Default for CreaseParams {
+    fn default() -> Self {
+        Self {
+            intersection_weight: 1.0,
+            beta_weight: 0.2,
+        }
+    }
+}
+
+/// Inputs of one crease cut (all arrays per mesh vertex unless said otherwise).
+pub struct CreaseInput<'a> {
+    /// Positions of the frame.
+    pub positions: &'a [Point3<f64>],
+    /// Unit normals of the frame.
+    pub normals: &'a [Vector3<f64>],
+    /// Mesh triangles.
+    pub triangles: &'a [[u32; 3]],
+    /// Faces of `W1 ∪ W2` (ids into `triangles`).
+    pub faces: &'a [u32],
+    /// Vertex in W1 / in W2.
+    pub w1: &'a [bool],
+    /// Vertex in W2.
+    pub w2: &'a [bool],
+    /// Partition of unity (1 on W1's side).
+    pub beta: &'a [f64],
+    /// `d̂_12`, W1's outward direction.
+    pub direction: Vector3<f64>,
+    /// Vertices of intersecting faces.
+    pub intersecting: &'a [u32],
+}
+
+/// The partition of the shared region.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Crease {
+    /// Per mesh vertex of `W1 ∪ W2`: on W1's side (`W1' = W1 \ R ∪ {R on W1's side}`).
+    pub on_w1: Vec<bool>,
+    /// Cut value.
+    pub value: f64,
+    /// Vertices of `R` that switched side because their component was not attached to
+    /// their side's terminals.
+    pub stray: usize,
+}
+
+/// Cuts the shared region (see the module doc).
+pub fn crease_cut(input: &CreaseInput, params: &CreaseParams) -> Result<Crease, MinCutError> {
+    let n = input.positions.len();
+    let shared: Vec<bool> = (0..n).map(|v| input.w1[v] && input.w2[v]).collect();
+    let mut node = vec![u32::MAX; n];
+    let mut verts = Vec::new();
+    for v in 0..n {
+        if shared[v] {
+            node[v] = verts.len() as u32;
+            verts.push(v as u32);
+        }
+    }
+    let edges = region_edges(input);
+    let mean_edge = mean_length(input.positions, &edges).max(1e-300);
+    let mut g = CutGraph::new(verts.len());
+    let mut area = vec![0.0; n];
+    for &f in input.faces {
+        let t = input.triangles[f as usize];
+        let [a, b, c] = t.map(|v| input.positions[v as usize]);
+        let third = (b - a).cross(&(c - a)).norm() / 6.0;
+        for v in t {
+            area[v as usize] += third;
+        }
+    }
+    let (mut to_w1, mut to_w2) = (vec![false; n], vec![false; n]);
+    for e in &edges {
+        let [a, b] = e.ends;
+        let (sa, sb) = (shared[a as usize], shared[b as usize]);
+        if sa && sb {
+            let cap = e.dual * (0.1 + min_facing(input, a, b));
+            g.add_edge(node[a as usize] as usize, node[b as usize] as usize, cap, cap)?;
+        }
+        for (s, o) in [(a, b), (b, a)] {
+            if shared[s as usize] && !shared[o as usize] {
+                to_w1[s as usize] |= input.w1[o as usize];
+                to_w2[s as usize] |= input.w2[o as usize];
+            }
+        }
+    }
+    let near_intersection = ring(input, &edges, input.intersecting);
+    for (k, &v) in verts.iter().enumerate() {
+        let v = v as usize;
+        let (mut src, mut snk) = (0.0, 0.0);
+        if to_w1[v] && !to_w2[v] {
+            src = f64::INFINITY;
+        } else if to_w2[v] && !to_w1[v] {
+            snk = f64::INFINITY;
+        } else if near_intersection[v] {
+            let g = input.normals[v].dot(&input.direction);
+            let w = params.intersection_weight / mean_edge * area[v] * g.abs();
+            if g > 0.0 { src = w } else { snk = w }
+        } else {
+            let b = input.beta[v].clamp(0.0, 1.0);
+            let w = params.beta_weight / mean_edge * area[v] * (2.0 * b - 1.0).abs();
+            if b > 0.5 { src = w } else { snk = w }
+        }
+        g.add_terminal(k, src, snk)?;
+    }
+    let cut = min_cut(&g)?;
+    let mut on_w1: Vec<bool> = (0..n).map(|v| input.w1[v] && !input.w2[v]).collect();
+    for (k, &v) in verts.iter().enumerate() {
+        on_w1[v as usize] = cut.source_side[k];
+    }
+    let stray = keep_attached(input, &edges, &shared, &mut on_w1);
+    Ok(Crease { on_w1, value: cut.value, stray })
+}
+
+/// An edge of `W1 ∪ W2` with its dual length.
+struct Edge {
+    ends: [u32; 2],
+    dual: f64,
+}
+
+/// Edges of the faces of `W1 ∪ W2`, each with its barycentric dual length.
+fn region_edges(input: &CreaseInput) -> Vec<Edge> {
+    let mut map: std::collections::BTreeMap<(u32, u32), f64> = std::collections::BTreeMap::new();
+    for &f in input.faces {
+        let t = input.triangles[f as usize];
+        let centroid = Point3::from(
+            t.iter().map(|&v| input.positions[v as usize].coords).sum::<Vector3<f64>>() / 3.0,
+        );
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            let mid = Point3::from((input.positions[a as usize].coords + input.positions[b as usize].coords) * 0.5);
+            *map.entry((a.min(b), a.max(b))).or_insert(0.0) += (centroid - mid).norm();
+        }
+    }
+    map.into_iter().map(|((a, b), dual)| Edge { ends: [a, b], dual }).collect()
+}
+
+fn mean_length(positions: &[Point3<f64>], edges: &[Edge]) -> f64 {
+    let sum: f64 = edges
+        .iter()
+        .map(|e| (positions[e.ends[0] as usize] - positions[e.ends[1] as usize]).norm())
+        .sum();
+    sum / edges.len().max(1) as f64
+}
+
+/// `min_{x ∈ ab} |n(x)·d̂|` with `n` interpolated linearly.
+fn min_facing(input: &CreaseInput, a: u32, b: u32) -> f64 {
+    let (ga, gb) = (
+        input.normals[a as usize].dot(&input.direction),
+        input.normals[b as usize].dot(&input.direction),
+    );
+    if ga * gb <= 0.0 {
+        0.0
+    } else {
+        ga.abs().min(gb.abs())
+    }
+}
+
+/// The given vertices and their one-ring.
+fn ring(input: &CreaseInput, edges: &[Edge], seeds: &[u32]) -> Vec<bool> {
+    let mut mark = vec![false; input.positions.len()];
+    for &v in seeds {
+        if let Some(m) = mark.get_mut(v as usize) {
+            *m = true;
+        }
+    }
+    let seeded = mark.clone();
+    for e in edges {
+        let [a, b] = e.ends;
+        if seeded[a as usize] || seeded[b as usize] {
+            mark[a as usize] = true;
+            mark[b as usize] = true;
+        }
+    }
+    mark
+}
+
+/// Keeps only the components of each side attached to that side's part outside `R`; other
+/// components switch. Returns the number of switched vertices.
+fn keep_attached(input: &CreaseInput, edges: &[Edge], shared: &[bool], on_w1: &mut [bool]) -> usize {
+    let n = on_w1.len();
+    let mut adjacency: Vec<Vec<u32>> = vec![Vec::new(); n];
+    for e in edges {
+        let [a, b] = e.ends;
+        adjacency[a as usize].push(b);
+        adjacency[b as usize].push(a);
+    }
+    let mut attached = vec![false; n];
+    let mut stack: Vec<u32> = (0..n as u32)
+        .filter(|&v| (input.w1[v as usize] || input.w2[v as usize]) && !shared[v as usize])
+        .collect();
+    for &v in &stack {
+        attached[v as usize] = true;
+    }
+    while let Some(v) = stack.pop() {
+        for &w in &adjacency[v as usize] {
+            if !attached[w as usize] && on_w1[w as usize] == on_w1[v as usize] {
+                attached[w as usize] = true;
+                stack.push(w);
+            }
+        }
+    }
+    let mut switched = 0;
+    for v in 0..n {
+        if shared[v] && !attached[v] {
+            on_w1[v] = !on_w1[v];
+            switched += 1;
+        }
+    }
+    switched
+}

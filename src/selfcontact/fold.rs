@@ -1,0 +1,354 @@
+//! One joint folding into itself, per frame (2021 Sec. 6): detection, crease partition,
+//! contact on the truncated working regions, direction field, deformation of both whole
+//! regions, partition-of-unity blend and one volume solve over the blended pair.
+//!
+//! With `PIPELINE.md`'s conventions: `d̂_12` is W1's outward direction at the fold (from the
+//! skeleton or the user); both regions use `d̄ = σ d̂_12`, `σ` harmonic on the shared region
+//! `R` with `σ = +1` on `W1 \ R` and on `∂C_1`, `-1` on `W2 \ R` and on `∂C_2` (the paper's
+//! `(2β - 1) d̄` can reverse W2's own contact displacement); each region is deformed with both
+//! contact zones (the zone found on one side is "reported" onto the part of the other region
+//! that was cut away); `p' = β p'_1 + (1 - β) p'_2` with one bulge height `h_v` solved on the
+//! blended `P` and `Q` (else the indentation inside `R` is compensated twice).
+
+use super::crease::{crease_cut, Crease, CreaseInput, CreaseParams};
+use super::regions::PairRegions;
+use super::SelfContactError;
+use crate::contact::{resolve_self_pair, Contact, ContactSide, DirectionMode, PairParams, SideFrame};
+use crate::deform::region::{bulge_height, shape_region};
+use crate::deform::{DeformParams, DeformStats, RegionFrame, WorkingRegion};
+use crate::heat::{Boundary, EdgePoint};
+use crate::intersect::{Intersections, MeshIndex};
+use nalgebra::{Point3, Vector3};
+use std::time::Instant;
+
+/// Parameters of one fold.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FoldParams {
+    /// `k̄` of W1 (W1 moves `1 - k̄` of the way; 0.5 for one material).
+    pub stiffness_1: f64,
+    /// `τ` of Eq. 4.
+    pub tau: f64,
+    /// Deformation parameters of both regions.
+    pub deform: DeformParams,
+    /// Crease graph weights.
+    pub crease: CreaseParams,
+}
+
+impl Default for FoldParams {
+    fn default() -> Self {
+        Self {
+            stiffness_1: 0.5,
+            tau: 0.0,
+            deform: DeformParams::default(),
+            crease: CreaseParams::default(),
+        }
+    }
+}
+
+/// What is precomputed once per joint pair.
+#[derive(Debug)]
+pub struct FoldPre {
+    /// The regions, `R` and `β`.
+    pub regions: PairRegions,
+    w1: WorkingRegion,
+    w2: WorkingRegion,
+    shared: WorkingRegion,
+    detect: [MeshIndex; 2],
+    faces: Vec<u32>,
+    closed: bool,
+}
+
+/// Time per step of one fold, in seconds.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct FoldTimings {
+    /// Detection with the rest partition.
+    pub detection: f64,
+    /// Crease cut and truncated parts.
+    pub crease: f64,
+    /// Contact surface and zones (Sec. 4.2-4.4).
+    pub contact: f64,
+    /// Direction field `σ`.
+    pub directions: f64,
+    /// Both regions' deformation (Sec. 5).
+    pub deformation: f64,
+    /// Blend and volume.
+    pub volume: f64,
+}
+
+/// The result of one fold in one frame.
+#[derive(Clone, Debug)]
+pub struct FoldOutput {
+    /// Output positions of the whole mesh.
+    pub positions: Vec<Point3<f64>>,
+    /// The crease partition.
+    pub crease: Crease,
+    /// The contact between the truncated regions.
+    pub contact: Contact,
+    /// `σ` per mesh vertex (0 outside `W1 ∪ W2`).
+    pub sigma: Vec<f64>,
+    /// Statistics of W1's and W2's deformations.
+    pub stats: [DeformStats; 2],
+    /// The common bulge height.
+    pub bulge_height: f64,
+    /// Timings.
+    pub timings: FoldTimings,
+}
+
+impl FoldPre {
+    /// Precomputes a fold on a mesh at rest.
+    pub fn new(
+        rest: &[Point3<f64>],
+        triangles: &[[u32; 3]],
+        regions: PairRegions,
+    ) -> Result<Self, SelfContactError> {
+        let n = rest.len();
+        let w1 = WorkingRegion::new(triangles, regions.w1_faces.iter().copied(), n)?;
+        let w2 = WorkingRegion::new(triangles, regions.w2_faces.iter().copied(), n)?;
+        let in_r = |f: &u32| triangles[*f as usize].iter().all(|&v| regions.w1[v as usize] && regions.w2[v as usize]);
+        let shared = WorkingRegion::new(triangles, regions.w1_faces.iter().filter(|f| in_r(f)).copied(), n)?;
+        let mut faces: Vec<u32> = regions.w1_faces.iter().chain(&regions.w2_faces).copied().collect();
+        faces.sort_unstable();
+        faces.dedup();
+        let labels = rest_labels(triangles, &regions);
+        let detect = MeshIndex::self_contact_parts(rest, triangles, &labels)?;
+        let closed = crate::deform::WorkingRegion::whole(triangles, n)?.closed;
+        Ok(Self { regions, w1, w2, shared, detect, faces, closed })
+    }
+}
+
+/// Face labels from `β` at rest: 1 on W1's side, 2 on W2's, 0 outside both.
+fn rest_labels(triangles: &[[u32; 3]], r: &PairRegions) -> Vec<u8> {
+    triangles
+        .iter()
+        .map(|t| {
+            let in_w = |w: &[bool]| t.iter().all(|&v| w[v as usize]);
+            if !(in_w(&r.w1) || in_w(&r.w2)) {
+                return 0;
+            }
+            let b = t.iter().map(|&v| r.beta[v as usize]).sum::<f64>() / 3.0;
+            if b >= 0.5 { 1 } else { 2 }
+        })
+        .collect()
+}
+
+/// The fold in one frame: `None` when it does not intersect itself.
+pub fn resolve_fold(
+    pre: &FoldPre,
+    positions: &[Point3<f64>],
+    normals: &[Vector3<f64>],
+    triangles: &[[u32; 3]],
+    direction: Vector3<f64>,
+    params: &FoldParams,
+) -> Result<Option<FoldOutput>, SelfContactError> {
+    let mut timings = FoldTimings::default();
+    let clock = Instant::now();
+    let parts = [pre.detect[0].pose(positions)?, pre.detect[1].pose(positions)?];
+    let ints = Intersections::self_contact(&parts[0], &parts[1])?;
+    timings.detection = clock.elapsed().as_secs_f64();
+    if ints.is_empty() {
+        return Ok(None);
+    }
+    let mut intersecting: Vec<u32> = ints
+        .segments
+        .iter()
+        .flat_map(|s| {
+            let (fa, fb) = (s.faces[0] as usize, s.faces[1] as usize);
+            triangles[fa].into_iter().chain(triangles[fb])
+        })
+        .collect();
+    intersecting.sort_unstable();
+    intersecting.dedup();
+    let r = &pre.regions;
+    let crease = crease_cut(
+        &CreaseInput {
+            positions,
+            normals,
+            triangles,
+            faces: &pre.faces,
+            w1: &r.w1,
+            w2: &r.w2,
+            beta: &r.beta,
+            direction,
+            intersecting: &intersecting,
+        },
+        &params.crease,
+    )?;
+    let labels = cut_labels(triangles, &pre.faces, &crease.on_w1);
+    let truncated = MeshIndex::self_contact_parts(positions, triangles, &labels)?;
+    let posed = [truncated[0].pose(positions)?, truncated[1].pose(positions)?];
+    timings.crease = clock.elapsed().as_secs_f64() - timings.detection;
+    let pair = PairParams {
+        stiffness_a: params.stiffness_1,
+        tau: params.tau,
+        direction: DirectionMode::Fixed(direction),
+    };
+    let t0 = clock.elapsed().as_secs_f64();
+    let contact = resolve_self_pair(
+        SideFrame { mesh: &posed[0], normals },
+        SideFrame { mesh: &posed[1], normals },
+        &pair,
+    )?;
+    timings.contact = clock.elapsed().as_secs_f64() - t0;
+    let Some(contact) = contact else {
+        return Ok(None);
+    };
+    let t0 = clock.elapsed().as_secs_f64();
+    let sigma = sigma_field(pre, positions, triangles, &contact)?;
+    let field: Vec<Vector3<f64>> = sigma.iter().map(|s| direction * *s).collect();
+    timings.directions = clock.elapsed().as_secs_f64() - t0;
+    let t0 = clock.elapsed().as_secs_f64();
+    let sides: Vec<&ContactSide> = contact.sides.iter().collect();
+    let frame = RegionFrame {
+        positions,
+        normals,
+        triangles,
+        contacts: &sides,
+        painted: None,
+        direction_field: Some(&field),
+    };
+    let s1 = shape_region(&pre.w1, &frame, &params.deform)?;
+    let s2 = shape_region(&pre.w2, &frame, &params.deform)?;
+    timings.deformation = clock.elapsed().as_secs_f64() - t0;
+    let t0 = clock.elapsed().as_secs_f64();
+    let (mut base, mut bulge) = (positions.to_vec(), vec![Vector3::zeros(); positions.len()]);
+    for v in 0..positions.len() {
+        let (in1, in2) = (r.w1[v], r.w2[v]);
+        if !(in1 || in2) {
+            continue;
+        }
+        let b = if in1 && in2 { r.beta[v].clamp(0.0, 1.0) } else if in1 { 1.0 } else { 0.0 };
+        base[v] = Point3::from(s1.base[v].coords * b + s2.base[v].coords * (1.0 - b));
+        bulge[v] = s1.bulge_unit[v] * b + s2.bulge_unit[v] * (1.0 - b);
+    }
+    let h = if pre.closed { bulge_height(triangles, positions, &base, &bulge)?.0 } else { 0.0 };
+    let gamma = params.deform.gamma;
+    let out: Vec<Point3<f64>> = base.iter().zip(&bulge).map(|(p, q)| p + q * (gamma * h)).collect();
+    timings.volume = clock.elapsed().as_secs_f64() - t0;
+    Ok(Some(FoldOutput {
+        positions: out,
+        crease,
+        contact,
+        sigma,
+        stats: [s1.stats, s2.stats],
+        bulge_height: h,
+        timings,
+    }))
+}
+
+/// Face labels after the cut: a face of `W1 ∪ W2` goes to the side of at least two of its
+/// corners.
+fn cut_labels(triangles: &[[u32; 3]], faces: &[u32], on_w1: &[bool]) -> Vec<u8> {
+    let mut labels = vec![0u8; triangles.len()];
+    for &f in faces {
+        let t = triangles[f as usize];
+        let ones = t.iter().filter(|&&v| on_w1[v as usize]).count();
+        labels[f as usize] = if ones >= 2 { 1 } else { 2 };
+    }
+    labels
+}
+
+/// `σ`: +1 on `W1 \ R` and `C_1`, -1 on `W2 \ R` and `C_2`, harmonic on the rest of `R`
+/// (Dirichlet on the zones' exact boundary points and on `R`'s borders toward each side).
+fn sigma_field(
+    pre: &FoldPre,
+    positions: &[Point3<f64>],
+    triangles: &[[u32; 3]],
+    contact: &Contact,
+) -> Result<Vec<f64>, SelfContactError> {
+    let r = &pre.regions;
+    let n = positions.len();
+    let zone_sign = |v: usize| {
+        if contact.sides[0].zone.inside[v] {
+            Some(1.0)
+        } else if contact.sides[1].zone.inside[v] {
+            Some(-1.0)
+        } else {
+            None
+        }
+    };
+    let mut sigma: Vec<f64> = (0..n)
+        .map(|v| match (r.w1[v], r.w2[v]) {
+            (true, false) => 1.0,
+            (false, true) => -1.0,
+            _ => 0.0,
+        })
+        .collect();
+    let region = &pre.shared.solver.region;
+    if region.vertex_count() == 0 {
+        return Ok(sigma);
+    }
+    let inside: Vec<bool> = region.vertices.iter().map(|&v| zone_sign(v as usize).is_some()).collect();
+    // Exact points of the zones on R's edges, with the sign of their zone; every edge leaving
+    // the zones gets one (at the zone vertex if the contact has none on it).
+    let mut exact: std::collections::HashMap<u32, (f64, f64)> = std::collections::HashMap::new();
+    for (k, side) in contact.sides.iter().enumerate() {
+        let sign = if k == 0 { 1.0 } else { -1.0 };
+        for bp in &side.zone.boundary {
+            let (li, lj) = (pre.shared.local_of[bp.inside as usize], pre.shared.local_of[bp.outside as usize]);
+            if li == u32::MAX || lj == u32::MAX {
+                continue;
+            }
+            if let Some(e) = region.edge(li, lj) {
+                let alpha_first = if region.edges[e as usize][0] == li { bp.alpha } else { 1.0 - bp.alpha };
+                exact.insert(e, (alpha_first, sign));
+            }
+        }
+    }
+    let mut points = Vec::new();
+    let mut values = Vec::new();
+    for (e, &[a, b]) in region.edges.iter().enumerate() {
+        if inside[a as usize] == inside[b as usize] {
+            continue;
+        }
+        let zone_vertex = if inside[a as usize] { a } else { b };
+        let (alpha, sign) = exact.get(&(e as u32)).copied().unwrap_or_else(|| {
+            let s = zone_sign(region.vertices[zone_vertex as usize] as usize).unwrap_or(0.0);
+            (if zone_vertex == a { 0.0 } else { 1.0 }, s)
+        });
+        points.push(EdgePoint { edge: e as u32, alpha });
+        values.push(sign);
+    }
+    // R's borders toward W1 \ R (+1) and W2 \ R (-1).
+    let mut toward = vec![(false, false); n];
+    for t in triangles {
+        for k in 0..3 {
+            let (a, b) = (t[k] as usize, t[(k + 1) % 3] as usize);
+            for (s, o) in [(a, b), (b, a)] {
+                if r.w1[s] && r.w2[s] {
+                    toward[s].0 |= r.w1[o] && !r.w2[o];
+                    toward[s].1 |= r.w2[o] && !r.w1[o];
+                }
+            }
+        }
+    }
+    let mut fixed = Vec::new();
+    for (l, &v) in region.vertices.iter().enumerate() {
+        if inside[l] {
+            continue;
+        }
+        match toward[v as usize] {
+            (true, false) => {
+                fixed.push(l as u32);
+                values.push(1.0);
+            }
+            (false, true) => {
+                fixed.push(l as u32);
+                values.push(-1.0);
+            }
+            _ => {}
+        }
+    }
+    let boundary = Boundary { inside: inside.clone(), points, vertices: fixed };
+    let local = region.gather(positions);
+    let mut problem = pre.shared.solver.problem(&local, &boundary)?;
+    let solved = problem.harmonic(&values)?;
+    for (l, &v) in region.vertices.iter().enumerate() {
+        let v = v as usize;
+        sigma[v] = match zone_sign(v) {
+            Some(s) => s,
+            None if problem.unreached()[l] => 0.0,
+            None => solved[l].clamp(-1.0, 1.0),
+        };
+    }
+    Ok(sigma)
+}

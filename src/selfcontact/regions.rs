@@ -1,0 +1,443 @@
+//! Working regions of an articulation, derived from skin weights (Brunel et al. 2021, Sec. 6;
+//! `PIPELINE.md`, "Working regions").
+//!
+//! For a body and a parent/child pair of joints of its skin that both deform it:
+//! - `W1`: welded vertices whose weight on the parent joint exceeds the threshold;
+//! - `W2`: welded vertices whose summed weight on the child joint and all its descendants
+//!   exceeds the threshold;
+//!
+//! each grown by a few rings over the welded mesh, then taken as faces (the faces with all
+//! three corners in the grown set; the region's vertices are the corners of its faces). The
+//! shared region `R` is the set of vertices in both, and carries the partition of unity `β`
+//! ([`super::partition`]). Pairs whose `R` is empty are skipped.
+//!
+//! The welded weights of a vertex are the row of its representative file vertex
+//! ([`WeldedMesh::representative`]); the rest positions are the bind positions of the body.
+
+use super::partition::{partition_of_unity_with_stats, vertex_adjacency, PartitionStats};
+use super::SelfContactError;
+use crate::mesh::WeldedMesh;
+use crate::rig::{Body, Rig, Skin};
+use nalgebra::Point3;
+
+/// Default weight threshold of a working region (`PIPELINE.md`, "Working regions").
+pub const DEFAULT_THRESHOLD: f64 = 0.05;
+
+/// Default number of rings a working region is grown by.
+pub const DEFAULT_GROW_RINGS: usize = 2;
+
+/// How working regions are derived from skin weights.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RegionOptions {
+    /// A vertex belongs to a region when its weight on the region's joints exceeds this
+    /// (strictly). Must be finite and `≥ 0`; `≥ 1` selects nothing.
+    pub threshold: f64,
+    /// Rings of neighbors added to each region after thresholding.
+    pub grow_rings: usize,
+}
+
+impl Default for RegionOptions {
+    fn default() -> Self {
+        Self {
+            threshold: DEFAULT_THRESHOLD,
+            grow_rings: DEFAULT_GROW_RINGS,
+        }
+    }
+}
+
+/// A parent/child pair of joints of one body's skin (2021 Sec. 6: the two sides of an
+/// articulation).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct JointPair {
+    /// Index of the body in [`Rig::bodies`].
+    pub body: usize,
+    /// Node index of the parent joint (`W1`'s joint).
+    pub parent_joint: usize,
+    /// Node index of the child joint (`W2` is this joint and its descendants).
+    pub child_joint: usize,
+    /// `body/parent-child`, from the node names (`finger/proximal-middle`).
+    pub name: String,
+}
+
+/// The two working regions of a pair, their shared region and its partition of unity.
+#[derive(Clone, Debug)]
+pub struct PairRegions {
+    /// The joints.
+    pub pair: JointPair,
+    /// Welded faces of `W1` (ascending).
+    pub w1_faces: Vec<u32>,
+    /// Welded faces of `W2` (ascending).
+    pub w2_faces: Vec<u32>,
+    /// Per welded vertex: corner of a face of `W1`.
+    pub w1: Vec<bool>,
+    /// Per welded vertex: corner of a face of `W2`.
+    pub w2: Vec<bool>,
+    /// Welded vertices of the shared region `R = W1 ∩ W2` (ascending).
+    pub shared: Vec<u32>,
+    /// Per welded vertex: the partition of unity `β` (1 on `W1 \ R`, 0 on `W2 \ R`, harmonic
+    /// on `R`; 0 outside both regions).
+    pub beta: Vec<f64>,
+    /// What the harmonic solve found.
+    pub partition: PartitionStats,
+    /// Human-readable account: thresholds, counts.
+    pub reason: String,
+}
+
+/// Working regions of every parent/child joint pair that deforms a body, body by body, in the
+/// skin's joint order of the child (2021 Sec. 6; `PIPELINE.md`, "Working regions").
+///
+/// The parent of a joint is its nearest ancestor node that is a joint of the same skin and
+/// carries weight on the body (helper joints without weight are skipped). `welded[b]` is the
+/// welded mesh of `rig.bodies[b]`. A pair whose shared region is empty is skipped; a shared
+/// region without both Dirichlet borders is an error naming the pair.
+pub fn derive_pairs(
+    rig: &Rig,
+    welded: &[WeldedMesh],
+    options: &RegionOptions,
+) -> Result<Vec<PairRegions>, SelfContactError> {
+    check_options(options)?;
+    check_welded(rig, welded)?;
+    let mut out = Vec::new();
+    for (b, (body, mesh)) in rig.bodies.iter().zip(welded).enumerate() {
+        let skin = skin_of(rig, body)?;
+        check_body(body, mesh, skin)?;
+        let carries = carried_joints(body, skin.joints.len());
+        for (c, &child) in skin.joints.iter().enumerate() {
+            if !carries[c] {
+                continue;
+            }
+            let Some(p) = weighted_ancestor(rig, skin, &carries, child) else {
+                continue;
+            };
+            if let Some(pair) = build_pair(rig, b, mesh, skin, p, c, options)? {
+                out.push(pair);
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// Working regions of the joint pairs a rig config names, as `(parent, child)` node names
+/// (same construction as [`derive_pairs`]). Each named pair gives one entry per body whose
+/// skin holds both joints and whose shared region is not empty, in the given order, then body
+/// order; a named pair that gives nothing is an error.
+pub fn pairs_for_joints<S: AsRef<str>>(
+    rig: &Rig,
+    welded: &[WeldedMesh],
+    joints: &[(S, S)],
+    options: &RegionOptions,
+) -> Result<Vec<PairRegions>, SelfContactError> {
+    check_options(options)?;
+    check_welded(rig, welded)?;
+    let find = |name: &str| {
+        rig.nodes
+            .iter()
+            .position(|n| n.name.as_deref() == Some(name))
+            .ok_or_else(|| SelfContactError::UnknownJoint(name.to_owned()))
+    };
+    let mut out = Vec::new();
+    for (parent_name, child_name) in joints {
+        let (parent_name, child_name) = (parent_name.as_ref(), child_name.as_ref());
+        let unusable = |reason: &str| SelfContactError::UnusablePair {
+            parent: parent_name.to_owned(),
+            child: child_name.to_owned(),
+            reason: reason.to_owned(),
+        };
+        let (parent, child) = (find(parent_name)?, find(child_name)?);
+        if parent == child {
+            return Err(unusable("the two joints are the same node"));
+        }
+        let before = out.len();
+        let mut holders = 0;
+        for (b, (body, mesh)) in rig.bodies.iter().zip(welded).enumerate() {
+            let skin = skin_of(rig, body)?;
+            let index = |node: usize| skin.joints.iter().position(|&j| j == node);
+            let (Some(p), Some(c)) = (index(parent), index(child)) else {
+                continue;
+            };
+            holders += 1;
+            check_body(body, mesh, skin)?;
+            if let Some(pair) = build_pair(rig, b, mesh, skin, p, c, options)? {
+                out.push(pair);
+            }
+        }
+        if out.len() == before {
+            return Err(unusable(if holders == 0 {
+                "no body's skin holds both joints"
+            } else {
+                "the shared region is empty on every body holding both joints"
+            }));
+        }
+    }
+    Ok(out)
+}
+
+fn check_options(options: &RegionOptions) -> Result<(), SelfContactError> {
+    if options.threshold.is_finite() && options.threshold >= 0.0 {
+        Ok(())
+    } else {
+        Err(SelfContactError::InconsistentInput(format!(
+            "weight threshold {} (must be finite and >= 0)",
+            options.threshold
+        )))
+    }
+}
+
+fn check_welded(rig: &Rig, welded: &[WeldedMesh]) -> Result<(), SelfContactError> {
+    if welded.len() == rig.bodies.len() {
+        Ok(())
+    } else {
+        Err(SelfContactError::InconsistentInput(format!(
+            "{} welded meshes for {} bodies",
+            welded.len(),
+            rig.bodies.len()
+        )))
+    }
+}
+
+fn skin_of<'a>(rig: &'a Rig, body: &Body) -> Result<&'a Skin, SelfContactError> {
+    rig.skins.get(body.skin).ok_or_else(|| {
+        SelfContactError::InconsistentInput(format!(
+            "body {} uses skin {} of {}",
+            body.name,
+            body.skin,
+            rig.skins.len()
+        ))
+    })
+}
+
+/// Checks that the welded mesh, the weights and the skin match the body.
+fn check_body(body: &Body, mesh: &WeldedMesh, skin: &Skin) -> Result<(), SelfContactError> {
+    let n = body.vertex_count();
+    let bad = |what: String| {
+        Err(SelfContactError::InconsistentInput(format!(
+            "body {}: {what}",
+            body.name
+        )))
+    };
+    if mesh.to_welded.len() != n || body.weights.len() != n {
+        return bad(format!(
+            "{} file vertices, {} welded entries, {} weight rows",
+            n,
+            mesh.to_welded.len(),
+            body.weights.len()
+        ));
+    }
+    if mesh.representative.iter().any(|&r| r as usize >= n) {
+        return bad("a welded representative is out of range".into());
+    }
+    if body.weights.joints.iter().any(|&j| j as usize >= skin.joints.len()) {
+        return bad("a weight names a joint outside the skin".into());
+    }
+    if body.weights.offsets.windows(2).any(|w| w[0] > w[1])
+        || body
+            .weights
+            .offsets
+            .last()
+            .is_some_and(|&e| e as usize > body.weights.joints.len())
+        || body.weights.joints.len() != body.weights.weights.len()
+    {
+        return bad("malformed weight table".into());
+    }
+    Ok(())
+}
+
+/// Per skin joint: some vertex of the body has a positive weight on it.
+fn carried_joints(body: &Body, joint_count: usize) -> Vec<bool> {
+    let mut carries = vec![false; joint_count];
+    for (&j, &w) in body.weights.joints.iter().zip(&body.weights.weights) {
+        if w > 0.0 {
+            if let Some(slot) = carries.get_mut(j as usize) {
+                *slot = true;
+            }
+        }
+    }
+    carries
+}
+
+/// Skin index of the nearest ancestor of `node` that is a weighted joint of `skin`.
+fn weighted_ancestor(rig: &Rig, skin: &Skin, carries: &[bool], node: usize) -> Option<usize> {
+    let mut current = rig.nodes.get(node)?.parent;
+    // The hierarchy is acyclic after loading; the step bound only guards against a bad input.
+    for _ in 0..rig.nodes.len() {
+        let n = current?;
+        if let Some(j) = skin.joints.iter().position(|&x| x == n) {
+            if carries.get(j).copied().unwrap_or(false) {
+                return Some(j);
+            }
+        }
+        current = rig.nodes.get(n)?.parent;
+    }
+    None
+}
+
+/// Whether `node` is `ancestor` or one of its descendants.
+fn descends_from(rig: &Rig, node: usize, ancestor: usize) -> bool {
+    let mut current = Some(node);
+    for _ in 0..=rig.nodes.len() {
+        match current {
+            Some(n) if n == ancestor => return true,
+            Some(n) => current = rig.nodes.get(n).and_then(|x| x.parent),
+            None => return false,
+        }
+    }
+    false
+}
+
+/// Display name of a node.
+pub(crate) fn node_name(rig: &Rig, node: usize) -> String {
+    rig.nodes
+        .get(node)
+        .and_then(|n| n.name.clone())
+        .unwrap_or_else(|| format!("node{node}"))
+}
+
+/// The regions of one pair (skin indices `p`, `c`) on body `b`, or `None` when `R` is empty.
+fn build_pair(
+    rig: &Rig,
+    b: usize,
+    mesh: &WeldedMesh,
+    skin: &Skin,
+    p: usize,
+    c: usize,
+    options: &RegionOptions,
+) -> Result<Option<PairRegions>, SelfContactError> {
+    let body = &rig.bodies[b];
+    let (parent, child) = (skin.joints[p], skin.joints[c]);
+    let pair = JointPair {
+        body: b,
+        parent_joint: parent,
+        child_joint: child,
+        name: format!(
+            "{}/{}-{}",
+            body.name,
+            node_name(rig, parent),
+            node_name(rig, child)
+        ),
+    };
+    let below: Vec<bool> = skin
+        .joints
+        .iter()
+        .map(|&node| descends_from(rig, node, child))
+        .collect();
+    let n = mesh.vertex_count();
+    let t = options.threshold;
+    let mut seed1 = vec![false; n];
+    let mut seed2 = vec![false; n];
+    for (v, &rep) in mesh.representative.iter().enumerate() {
+        let (mut on_parent, mut on_child) = (0.0, 0.0);
+        for (j, w) in body.weights.row(rep as usize) {
+            if j == p {
+                on_parent += w;
+            }
+            if below.get(j).copied().unwrap_or(false) {
+                on_child += w;
+            }
+        }
+        seed1[v] = on_parent > t;
+        seed2[v] = on_child > t;
+    }
+    let (n1, n2) = (count(&seed1), count(&seed2));
+    let adjacency = vertex_adjacency(n, &mesh.triangles)?;
+    let grown1 = grow(seed1, &adjacency, options.grow_rings);
+    let grown2 = grow(seed2, &adjacency, options.grow_rings);
+    let (w1_faces, w1) = as_faces(&mesh.triangles, &grown1);
+    let (w2_faces, w2) = as_faces(&mesh.triangles, &grown2);
+    let shared: Vec<u32> = (0..n)
+        .filter(|&v| w1[v] && w2[v])
+        .map(|v| v as u32)
+        .collect();
+    if shared.is_empty() {
+        return Ok(None);
+    }
+    let rest: Vec<Point3<f64>> = mesh
+        .representative
+        .iter()
+        .map(|&r| body.positions.get(r as usize).copied())
+        .collect::<Option<_>>()
+        .ok_or_else(|| {
+            SelfContactError::InconsistentInput(format!(
+                "body {}: positions do not match the welded mesh",
+                body.name
+            ))
+        })?;
+    let (beta, partition) = partition_of_unity_with_stats(&rest, &mesh.triangles, &w1, &w2)
+        .map_err(|e| e.for_pair(&pair.name))?;
+    let reason = format!(
+        "{name}: W1 = weight on {pj} > {t} ({n1} vertices), W2 = weight on {cj} and its \
+         descendants > {t} ({n2} vertices), each grown {rings} rings: W1 {v1} vertices / {f1} \
+         faces, W2 {v2} vertices / {f2} faces; R {r} vertices / {rf} faces in {comp} part(s), \
+         border beta = 1 on {d1}, beta = 0 on {d0}, {both} next to both (Neumann), {orph} \
+         orphan(s); harmonic range before clamping [{lo:.3e}, {hi:.3e}]",
+        name = pair.name,
+        pj = node_name(rig, parent),
+        cj = node_name(rig, child),
+        rings = options.grow_rings,
+        v1 = count(&w1),
+        f1 = w1_faces.len(),
+        v2 = count(&w2),
+        f2 = w2_faces.len(),
+        r = shared.len(),
+        rf = partition.faces,
+        comp = partition.components,
+        d1 = partition.dirichlet_one,
+        d0 = partition.dirichlet_zero,
+        both = partition.touching_both,
+        orph = partition.orphans,
+        lo = partition.raw_min,
+        hi = partition.raw_max,
+    );
+    Ok(Some(PairRegions {
+        pair,
+        w1_faces,
+        w2_faces,
+        w1,
+        w2,
+        shared,
+        beta,
+        partition,
+        reason,
+    }))
+}
+
+fn count(flags: &[bool]) -> usize {
+    flags.iter().filter(|&&x| x).count()
+}
+
+/// Adds `rings` rings of neighbors to `set`.
+fn grow(mut set: Vec<bool>, adjacency: &[Vec<u32>], rings: usize) -> Vec<bool> {
+    let mut front: Vec<u32> = (0..set.len())
+        .filter(|&v| set[v])
+        .map(|v| v as u32)
+        .collect();
+    for _ in 0..rings {
+        let mut next = Vec::new();
+        for &v in &front {
+            for &u in &adjacency[v as usize] {
+                if !std::mem::replace(&mut set[u as usize], true) {
+                    next.push(u);
+                }
+            }
+        }
+        if next.is_empty() {
+            break;
+        }
+        front = next;
+    }
+    set
+}
+
+/// The faces with all three corners in `set`, and the vertices of those faces.
+fn as_faces(triangles: &[[u32; 3]], set: &[bool]) -> (Vec<u32>, Vec<bool>) {
+    let mut vertices = vec![false; set.len()];
+    let mut faces = Vec::new();
+    for (f, t) in triangles.iter().enumerate() {
+        if t.iter().all(|&v| set[v as usize]) {
+            faces.push(f as u32);
+            for &v in t {
+                vertices[v as usize] = true;
+            }
+        }
+    }
+    (faces, vertices)
+}
