@@ -12,7 +12,6 @@
 
 use super::crease::{crease_cut, Crease, CreaseInput, CreaseParams};
 use super::regions::PairRegions;
-use super::SelfContactError;
 use crate::contact::{resolve_self_pair, Contact, ContactSide, DirectionMode, PairParams, SideFrame};
 use crate::deform::region::{bulge_height, shape_region};
 use crate::deform::{DeformParams, DeformStats, RegionFrame, WorkingRegion};
@@ -20,6 +19,29 @@ use crate::heat::{Boundary, EdgePoint};
 use crate::intersect::{Intersections, MeshIndex};
 use nalgebra::{Point3, Vector3};
 use std::time::Instant;
+
+/// Why a fold could not be resolved in a frame.
+#[derive(Debug, thiserror::Error)]
+pub enum FoldError {
+    /// Intersection queries on the parts.
+    #[error(transparent)]
+    Intersect(#[from] crate::intersect::IntersectError),
+    /// The crease min-cut.
+    #[error(transparent)]
+    MinCut(#[from] crate::mincut::MinCutError),
+    /// The contact between the truncated regions.
+    #[error(transparent)]
+    Contact(#[from] crate::contact::ContactError),
+    /// A region's deformation.
+    #[error(transparent)]
+    Deform(#[from] crate::deform::DeformError),
+    /// A harmonic solve (`σ`).
+    #[error(transparent)]
+    Heat(#[from] crate::heat::HeatError),
+    /// A region's analysis.
+    #[error(transparent)]
+    Solve(#[from] crate::solve::SolveError),
+}
 
 /// Parameters of one fold.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -100,7 +122,7 @@ impl FoldPre {
         rest: &[Point3<f64>],
         triangles: &[[u32; 3]],
         regions: PairRegions,
-    ) -> Result<Self, SelfContactError> {
+    ) -> Result<Self, FoldError> {
         let n = rest.len();
         let w1 = WorkingRegion::new(triangles, regions.w1_faces.iter().copied(), n)?;
         let w2 = WorkingRegion::new(triangles, regions.w2_faces.iter().copied(), n)?;
@@ -139,7 +161,7 @@ pub fn resolve_fold(
     triangles: &[[u32; 3]],
     direction: Vector3<f64>,
     params: &FoldParams,
-) -> Result<Option<FoldOutput>, SelfContactError> {
+) -> Result<Option<FoldOutput>, FoldError> {
     let mut timings = FoldTimings::default();
     let clock = Instant::now();
     let parts = [pre.detect[0].pose(positions)?, pre.detect[1].pose(positions)?];
@@ -254,7 +276,7 @@ fn sigma_field(
     positions: &[Point3<f64>],
     triangles: &[[u32; 3]],
     contact: &Contact,
-) -> Result<Vec<f64>, SelfContactError> {
+) -> Result<Vec<f64>, FoldError> {
     let r = &pre.regions;
     let n = positions.len();
     let zone_sign = |v: usize| {

@@ -24,7 +24,9 @@
 //! `d̄ = σ d̂_12` ("Self-contact: direction"), and the blend of the two deformations over `R`
 //! with one volume solve on the blended positions.
 
+pub mod crease;
 pub mod direction;
+pub mod fold;
 pub mod partition;
 pub mod regions;
 

@@ -90,8 +90,12 @@ pub fn partition_of_unity_with_stats(
     // Dirichlet side of each vertex of R, from its neighbors outside R.
     let mut fixed: Vec<Option<f64>> = vec![None; n];
     for v in (0..n).filter(|&v| in_r[v]) {
-        let near1 = adjacency[v].iter().any(|&u| w1[u as usize] && !w2[u as usize]);
-        let near2 = adjacency[v].iter().any(|&u| w2[u as usize] && !w1[u as usize]);
+        let near1 = adjacency[v]
+            .iter()
+            .any(|&u| w1[u as usize] && !w2[u as usize]);
+        let near2 = adjacency[v]
+            .iter()
+            .any(|&u| w2[u as usize] && !w1[u as usize]);
         match (near1, near2) {
             (true, false) => {
                 fixed[v] = Some(1.0);
@@ -204,9 +208,7 @@ fn solve_harmonic(
         pair: UNNAMED_PAIR.to_owned(),
         source,
     };
-    let mut problem = solver
-        .problem(&local_positions, &boundary)
-        .map_err(heat)?;
+    let mut problem = solver.problem(&local_positions, &boundary).map_err(heat)?;
     let unreached = problem.unreached().iter().filter(|&&u| u).count();
     if unreached > 0 {
         return Err(SelfContactError::UnreachedSharedRegion {
@@ -328,7 +330,11 @@ mod tests {
             partition_of_unity_with_stats(&p, &t, &w1, &w2).expect("non-degenerate");
         for (q, b) in p.iter().zip(&beta) {
             let expected = ((6.0 - q.x) / 4.0).clamp(0.0, 1.0);
-            assert!((b - expected).abs() < 1e-9, "x = {}: {b} vs {expected}", q.x);
+            assert!(
+                (b - expected).abs() < 1e-9,
+                "x = {}: {b} vs {expected}",
+                q.x
+            );
         }
         assert_eq!(stats.dirichlet_one, 4);
         assert_eq!(stats.dirichlet_zero, 4);

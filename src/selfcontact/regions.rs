@@ -226,7 +226,12 @@ fn check_body(body: &Body, mesh: &WeldedMesh, skin: &Skin) -> Result<(), SelfCon
     if mesh.representative.iter().any(|&r| r as usize >= n) {
         return bad("a welded representative is out of range".into());
     }
-    if body.weights.joints.iter().any(|&j| j as usize >= skin.joints.len()) {
+    if body
+        .weights
+        .joints
+        .iter()
+        .any(|&j| j as usize >= skin.joints.len())
+    {
         return bad("a weight names a joint outside the skin".into());
     }
     if body.weights.offsets.windows(2).any(|w| w[0] > w[1])
