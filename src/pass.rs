@@ -545,6 +545,7 @@ impl ContactPass {
             contacts: &sides,
             painted: self.params[body].painted.as_deref(),
             direction_field: None,
+            free_border: None,
         };
         deform_region(&b.region, &frame, &b.deform)
             .map(Some)

@@ -20,7 +20,7 @@ use crate::intersect::{
     IntersectError, IntersectionRegion, IntersectionStats, Intersections, PosedMesh, Side,
 };
 pub use mapping::{Mapping, MappingRegion, MappingStats, SideFrame};
-use nalgebra::Vector3;
+use nalgebra::{Point3, Vector3};
 use std::time::Instant;
 pub use zones::{SurfaceSample, Zone, ZoneBoundaryPoint};
 
@@ -181,10 +181,13 @@ fn resolve(
     if ints.is_empty() || curve_length(&ints) <= TOUCH_TOLERANCE * reach_of(a.mesh, b.mesh) {
         return Ok(None);
     }
-    let regions = [
+    let mut regions = [
         IntersectionRegion::inside(&ints, Side::A, a.mesh)?,
         IntersectionRegion::inside(&ints, Side::B, b.mesh)?,
     ];
+    if same_mesh {
+        inside_by_winding([a, b], &mut regions);
+    }
     let t_int = start.elapsed().as_secs_f64();
     let Some(dir_a) = pair_direction(a, b, &regions, params)? else {
         return Ok(None);
@@ -282,6 +285,51 @@ fn pair_direction(
             let sb = direction::NormalStats::over(&regions[1], b.mesh, b.normals);
             Ok(direction::automatic_direction(sa.as_ref(), sb.as_ref()))
         }
+    }
+}
+
+/// Self-contact: the truncated parts are open surfaces whose intersection curves usually end
+/// at the crease cut, so the flood fill of [`IntersectionRegion`] has nothing to stop it.
+/// Instead, a vertex of a part is in `I_l` when it lies inside the closed body twice over:
+/// the generalized winding number of the whole mesh at the vertex nudged inward by `10⁻³ h`
+/// is at least 1.5 (the nudged point is inside its own body and inside the other part).
+/// Faces with all corners inside are whole faces, faces with some are cut faces (without
+/// sub-triangles: the self-contact direction comes from the skeleton, not from Eq. 2).
+fn inside_by_winding(parts: [SideFrame; 2], regions: &mut [IntersectionRegion; 2]) {
+    let positions = parts[0].mesh.positions();
+    let triangles = parts[0].mesh.triangles();
+    let h = crate::mesh::operators::mean_edge_length(positions, triangles);
+    let winding = crate::report::metrics::WindingNumber::new(positions, triangles);
+    for (part, region) in parts.iter().zip(regions.iter_mut()) {
+        let faces = part.mesh.index().faces();
+        let mut used = vec![false; positions.len()];
+        for &f in faces {
+            for v in triangles[f as usize] {
+                used[v as usize] = true;
+            }
+        }
+        let verts: Vec<u32> = (0..positions.len() as u32).filter(|&v| used[v as usize]).collect();
+        let nudged: Vec<Point3<f64>> = verts
+            .iter()
+            .map(|&v| positions[v as usize] - part.normals[v as usize] * (1e-3 * h))
+            .collect();
+        let w = winding.query_many(&nudged);
+        let mut inside = vec![false; positions.len()];
+        for (&v, &wv) in verts.iter().zip(&w) {
+            inside[v as usize] = wv >= 1.5;
+        }
+        let (mut whole, mut cut) = (Vec::new(), Vec::new());
+        for &f in faces {
+            let n = triangles[f as usize].iter().filter(|&&v| inside[v as usize]).count();
+            if n == 3 {
+                whole.push(f);
+            } else if n > 0 {
+                cut.push(crate::intersect::CutFace { face: f, sub_triangles: Vec::new(), holes: Vec::new() });
+            }
+        }
+        region.inside = inside;
+        region.whole_faces = whole;
+        region.cut_faces = cut;
     }
 }
 

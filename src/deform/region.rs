@@ -218,6 +218,9 @@ pub struct RegionFrame<'a> {
     /// Optional mapping-direction field `d̄` per mesh vertex, replacing the contacts'
     /// directions (self-contact: `σ d̂_12`, `PIPELINE.md`).
     pub direction_field: Option<&'a [Vector3<f64>]>,
+    /// Optional per mesh vertex: border vertices that do not bound the extent (self-contact:
+    /// the border of `W1` inside the shared region, where the blend gives `W1` no weight).
+    pub free_border: Option<&'a [bool]>,
 }
 
 /// Algorithm Part 2 for one working region.
@@ -293,6 +296,7 @@ pub fn shape_region(
         &boundary,
         &phi,
         params.extent.max(floor),
+        frame.free_border,
         &mut stats,
     );
     stats.extent_floor = floor;
@@ -495,10 +499,14 @@ fn effective_extent(
     boundary: &Boundary,
     phi: &[f64],
     extent: f64,
+    free_border: Option<&[bool]>,
     stats: &mut DeformStats,
 ) -> f64 {
+    let free = |l: usize| {
+        free_border.is_some_and(|f| f.get(region.vertices[l] as usize) == Some(&true))
+    };
     let border_min = (0..region.vertex_count())
-        .filter(|&l| region.border[l] && !boundary.inside[l])
+        .filter(|&l| region.border[l] && !boundary.inside[l] && !free(l))
         .map(|l| phi[l])
         .fold(f64::INFINITY, f64::min);
     let ext = if extent.is_finite() && extent > 0.0 {

@@ -220,6 +220,7 @@ pub fn resolve_fold(
     timings.directions = clock.elapsed().as_secs_f64() - t0;
     let t0 = clock.elapsed().as_secs_f64();
     let sides: Vec<&ContactSide> = contact.sides.iter().collect();
+    let shared: Vec<bool> = r.w1.iter().zip(&r.w2).map(|(a, b)| *a && *b).collect();
     let frame = RegionFrame {
         positions,
         normals,
@@ -227,6 +228,7 @@ pub fn resolve_fold(
         contacts: &sides,
         painted: None,
         direction_field: Some(&field),
+        free_border: Some(&shared),
     };
     let s1 = shape_region(&pre.w1, &frame, &params.deform)?;
     let s2 = shape_region(&pre.w2, &frame, &params.deform)?;

@@ -28,6 +28,7 @@ pub mod crease;
 pub mod direction;
 pub mod fold;
 pub mod partition;
+pub mod pass;
 pub mod regions;
 
 pub use direction::{child_end, skeleton_direction, BoneAxes, DirectionSource, LeafAxisSource};

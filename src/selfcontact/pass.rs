@@ -1,0 +1,152 @@
+//! The per-frame self-contact pass of a rig (2021 Sec. 6): every joint pair whose shared
+//! region folds into contact is resolved, one after the other on the same positions (the
+//! output of a pair is the input of the next, in a fixed order), each only when it
+//! intersects itself; a frame without any fold costs one BVH refit and one self-overlap query
+//! per pair.
+
+use super::direction::{skeleton_direction, BoneAxes};
+use super::fold::{resolve_fold, FoldError, FoldOutput, FoldParams, FoldPre, FoldTimings};
+use super::regions::{derive_pairs, RegionOptions};
+use super::SelfContactError;
+use crate::mesh::operators::{vertex_normals, NormalWeighting};
+use crate::mesh::WeldedMesh;
+use crate::rig::{Pose, Rig};
+use nalgebra::{Point3, Vector3};
+
+/// One joint pair of one body, precomputed.
+#[derive(Debug)]
+struct Fold {
+    body: usize,
+    pre: FoldPre,
+    axes: BoneAxes,
+    direction: Option<Vector3<f64>>,
+}
+
+/// What one fold did in a frame.
+#[derive(Clone, Debug)]
+pub struct FoldReport {
+    /// Body.
+    pub body: usize,
+    /// Pair name.
+    pub name: String,
+    /// `d̂_12` used.
+    pub direction: Vector3<f64>,
+    /// The fold's result (positions are those after this fold).
+    pub output: FoldOutput,
+}
+
+/// Output of one frame.
+#[derive(Clone, Debug, Default)]
+pub struct SelfPassOutput {
+    /// Folds that were in contact.
+    pub folds: Vec<FoldReport>,
+    /// Summed timings.
+    pub timings: FoldTimings,
+    /// Folds skipped because no direction exists (full 180° fold).
+    pub no_direction: usize,
+}
+
+/// Self-contact of every joint pair of a rig, precomputed once.
+#[derive(Debug)]
+pub struct SelfContactPass {
+    folds: Vec<Fold>,
+    params: FoldParams,
+    triangles: Vec<Vec<[u32; 3]>>,
+}
+
+/// Why the self-contact pass failed.
+#[derive(Debug, thiserror::Error)]
+pub enum SelfPassError {
+    /// Precomputation.
+    #[error(transparent)]
+    Regions(#[from] SelfContactError),
+    /// A fold in a frame.
+    #[error("fold {name}: {source}")]
+    Fold {
+        /// The pair.
+        name: String,
+        /// Cause.
+        source: FoldError,
+    },
+    /// Inputs do not match the rig.
+    #[error("{0}")]
+    Mismatch(String),
+}
+
+impl SelfContactPass {
+    /// Derives the joint pairs of every body from the skin weights and precomputes them
+    /// (`rest`: welded rest positions per body). `direction`: a user direction for every
+    /// pair (W1's outward side), else the skeleton's.
+    pub fn new(
+        rig: &Rig,
+        welded: &[WeldedMesh],
+        rest: &[Vec<Point3<f64>>],
+        options: &RegionOptions,
+        params: FoldParams,
+        direction: Option<Vector3<f64>>,
+    ) -> Result<Self, SelfPassError> {
+        if rest.len() != welded.len() {
+            return Err(SelfPassError::Mismatch(format!("{} bodies, {} position sets", welded.len(), rest.len())));
+        }
+        let mut folds = Vec::new();
+        for regions in derive_pairs(rig, welded, options)? {
+            let body = regions.pair.body;
+            let axes = BoneAxes::new(rig, &welded[body], &regions);
+            let name = regions.pair.name.clone();
+            let pre = FoldPre::new(&rest[body], &welded[body].triangles, regions)
+                .map_err(|source| SelfPassError::Fold { name, source })?;
+            folds.push(Fold { body, pre, axes, direction });
+        }
+        let triangles = welded.iter().map(|w| w.triangles.clone()).collect();
+        Ok(Self { folds, params, triangles })
+    }
+
+    /// Names of the joint pairs, with their body.
+    pub fn pairs(&self) -> Vec<(usize, String)> {
+        self.folds.iter().map(|f| (f.body, f.pre.regions.pair.name.clone())).collect()
+    }
+
+    /// Resolves every fold of a frame in place (`positions`: welded positions per body, `pose`
+    /// the frame's skeleton pose).
+    pub fn run(
+        &self,
+        rig: &Rig,
+        pose: &Pose,
+        positions: &mut [Vec<Point3<f64>>],
+    ) -> Result<SelfPassOutput, SelfPassError> {
+        if positions.len() != self.triangles.len() {
+            return Err(SelfPassError::Mismatch(format!("{} bodies, {} position sets", self.triangles.len(), positions.len())));
+        }
+        let mut out = SelfPassOutput::default();
+        for fold in &self.folds {
+            let name = &fold.pre.regions.pair.name;
+            let tris = &self.triangles[fold.body];
+            let direction = fold
+                .direction
+                .or_else(|| skeleton_direction(rig, pose, &fold.pre.regions.pair, fold.axes.leaf_axis));
+            let Some(direction) = direction else {
+                out.no_direction += 1;
+                continue;
+            };
+            let pos = &positions[fold.body];
+            let normals = vertex_normals(pos, tris, NormalWeighting::Area);
+            let result = resolve_fold(&fold.pre, pos, &normals, tris, direction, &self.params)
+                .map_err(|source| SelfPassError::Fold { name: name.clone(), source })?;
+            if let Some(o) = result {
+                add(&mut out.timings, &o.timings);
+                positions[fold.body].clone_from(&o.positions);
+                out.folds.push(FoldReport { body: fold.body, name: name.clone(), direction, output: o });
+            }
+        }
+        Ok(out)
+    }
+}
+
+fn add(a: &mut FoldTimings, b: &FoldTimings) {
+    a.detection += b.detection;
+    a.crease += b.crease;
+    a.contact += b.contact;
+    a.directions += b.directions;
+    a.deformation += b.deformation;
+    a.volume += b.volume;
+}
