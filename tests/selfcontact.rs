@@ -13,7 +13,7 @@ use scenes::{load, welded_positions, Loaded};
 
 fn self_pass(l: &Loaded) -> SelfContactPass {
     let rest = welded_positions(&l.rig, &l.pre, 0.0, None);
-    SelfContactPass::new(&l.rig, &l.pre.welded, &rest, &RegionOptions::default(), FoldParams::default(), None)
+    SelfContactPass::new(&l.rig, &l.pre.welded, &rest, &RegionOptions::default(), FoldParams::default(), &[])
         .expect("self-contact pass precomputes")
 }
 
@@ -33,6 +33,16 @@ fn probe_bending_capsule() {
         let mut out = input.clone();
         let pose = l.rig.pose_at(Some(0), l.times[f]);
         let res = pass.run(&l.rig, &pose, &mut out).expect("runs");
+        if let Ok(dir) = std::env::var("PROBE_OBJ") {
+            for (tag, data) in [("in", &input), ("out", &out)] {
+                let mut text = String::new();
+                for (b, p) in data.iter().enumerate() {
+                    for q in p { text += &format!("v {} {} {}\n", q.x, q.y, q.z); }
+                    for t in &l.triangles[b] { text += &format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1); }
+                }
+                std::fs::write(format!("{dir}/{name}_{f}_{tag}.obj"), text).expect("write");
+            }
+        }
         for b in 0..input.len() {
             let (pi, po) = (penetration(&l, b, &input[b]), penetration(&l, b, &out[b]));
             let v0 = contact_skin::mesh::signed_volume(&input[b], &l.triangles[b]);

@@ -75,15 +75,16 @@ pub enum SelfPassError {
 
 impl SelfContactPass {
     /// Derives the joint pairs of every body from the skin weights and precomputes them
-    /// (`rest`: welded rest positions per body). `direction`: a user direction for every
-    /// pair (W1's outward side), else the skeleton's.
+    /// (`rest`: welded rest positions per body). `directions`: user directions by pair name
+    /// (W1's outward side at the fold, e.g. vertical for the lips); other pairs use the
+    /// skeleton's.
     pub fn new(
         rig: &Rig,
         welded: &[WeldedMesh],
         rest: &[Vec<Point3<f64>>],
         options: &RegionOptions,
         params: FoldParams,
-        direction: Option<Vector3<f64>>,
+        directions: &[(String, Vector3<f64>)],
     ) -> Result<Self, SelfPassError> {
         if rest.len() != welded.len() {
             return Err(SelfPassError::Mismatch(format!("{} bodies, {} position sets", welded.len(), rest.len())));
@@ -93,6 +94,10 @@ impl SelfContactPass {
             let body = regions.pair.body;
             let axes = BoneAxes::new(rig, &welded[body], &regions);
             let name = regions.pair.name.clone();
+            let direction = directions
+                .iter()
+                .find(|(n, _)| *n == name)
+                .and_then(|(_, d)| d.try_normalize(1e-300));
             let pre = FoldPre::new(&rest[body], &welded[body].triangles, regions)
                 .map_err(|source| SelfPassError::Fold { name, source })?;
             folds.push(Fold { body, pre, axes, direction });
