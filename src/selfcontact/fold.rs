@@ -112,6 +112,9 @@ pub struct FoldOutput {
     pub stats: [DeformStats; 2],
     /// The common bulge height.
     pub bulge_height: f64,
+    /// Each region's own deformation with the common bulge height, before the blend (`p'_1`,
+    /// `p'_2`; whole mesh, unchanged outside the region).
+    pub region_positions: [Vec<Point3<f64>>; 2],
     /// Timings.
     pub timings: FoldTimings,
 }
@@ -248,7 +251,12 @@ pub fn resolve_fold(
     let gamma = params.deform.gamma;
     let out: Vec<Point3<f64>> = base.iter().zip(&bulge).map(|(p, q)| p + q * (gamma * h)).collect();
     timings.volume = clock.elapsed().as_secs_f64() - t0;
+    let own = |sh: &crate::deform::RegionDeformation| -> Vec<Point3<f64>> {
+        sh.base.iter().zip(&sh.bulge_unit).map(|(p, q)| p + q * (gamma * h)).collect()
+    };
+    let region_positions = [own(&s1), own(&s2)];
     Ok(Some(FoldOutput {
+        region_positions,
         positions: out,
         crease,
         contact,
