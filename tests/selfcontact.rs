@@ -96,3 +96,4 @@ fn finger_folds() {
     }
 }
 
+
