@@ -13,8 +13,15 @@ use scenes::{load, welded_positions, Loaded};
 
 fn self_pass(l: &Loaded) -> SelfContactPass {
     let rest = welded_positions(&l.rig, &l.pre, 0.0, None);
-    SelfContactPass::new(&l.rig, &l.pre.welded, &rest, &RegionOptions::default(), FoldParams::default(), &[])
-        .expect("self-contact pass precomputes")
+    SelfContactPass::new(
+        &l.rig,
+        &l.pre.welded,
+        &rest,
+        &RegionOptions::default(),
+        FoldParams::default(),
+        &[],
+    )
+    .expect("self-contact pass precomputes")
 }
 
 fn penetration(l: &Loaded, b: usize, p: &[Point3<f64>]) -> metrics::Penetration {
@@ -38,26 +45,46 @@ fn run(name: &str, frames: usize) -> Run {
         let input = l.frame(f);
         let mut out = input.clone();
         let pose = l.rig.pose_at(Some(0), l.times[f]);
-        let res = pass.run(&l.rig, &pose, &mut out).expect("self-contact pass runs");
+        let res = pass
+            .run(&l.rig, &pose, &mut out)
+            .expect("self-contact pass runs");
         if res.folds.is_empty() {
-            assert_eq!(out, input, "{name} frame {f}: no fold must leave the input unchanged");
+            assert_eq!(
+                out, input,
+                "{name} frame {f}: no fold must leave the input unchanged"
+            );
         }
         for b in 0..input.len() {
             let (pi, po) = (penetration(&l, b, &input[b]), penetration(&l, b, &out[b]));
             let v0 = contact_skin::mesh::signed_volume(&input[b], &l.triangles[b]);
             let v1 = contact_skin::mesh::signed_volume(&out[b], &l.triangles[b]);
             let inv = metrics::inverted_faces(&l.triangles[b], &input[b], &out[b]);
-            rows.push((f, pi.vertices, po.vertices, ((v1 - v0) / v0).abs(), inv.inverted, metrics::non_finite(&out[b]), res.folds.len()));
+            rows.push((
+                f,
+                pi.vertices,
+                po.vertices,
+                ((v1 - v0) / v0).abs(),
+                inv.inverted,
+                metrics::non_finite(&out[b]),
+                res.folds.len(),
+            ));
         }
         ins.push(input.concat());
         outs.push(out.concat());
     }
     let sd = metrics::second_difference_ratio(&outs, &ins);
     for r in rows.iter().filter(|r| r.6 > 0) {
-        println!("{name} frame {}: folds {} penetrating {} -> {}, volume error {:.1e}, inverted {}", r.0, r.6, r.1, r.2, r.3, r.4);
+        println!(
+            "{name} frame {}: folds {} penetrating {} -> {}, volume error {:.1e}, inverted {}",
+            r.0, r.6, r.1, r.2, r.3, r.4
+        );
     }
     println!("{name}: second-difference ratio {:.2}", sd.ratio);
-    Run { rows, ratio: sd.ratio, pairs: pass.pairs() }
+    Run {
+        rows,
+        ratio: sd.ratio,
+        pairs: pass.pairs(),
+    }
 }
 
 /// The bending capsule's `bend` (0 to 150°): the fold is resolved with the volume kept.
@@ -68,12 +95,18 @@ fn run(name: &str, frames: usize) -> Run {
 fn bending_capsule_fold() {
     let r = run("bending_capsule", 31);
     assert_eq!(r.pairs.len(), 1);
-    assert!(r.rows.iter().any(|x| x.6 > 0), "the bend folds into contact");
+    assert!(
+        r.rows.iter().any(|x| x.6 > 0),
+        "the bend folds into contact"
+    );
     for &(f, before, after, vol, _, nan, folds) in &r.rows {
         assert_eq!(nan, 0, "frame {f}: NaN");
         if folds > 0 {
             assert!(vol < 1e-4, "frame {f}: volume error {vol}");
-            assert!(after * 5 <= before, "frame {f}: penetration {before} -> {after}");
+            assert!(
+                after * 5 <= before,
+                "frame {f}: penetration {before} -> {after}"
+            );
         }
         if f <= 15 {
             assert_eq!(after, 0, "frame {f}: penetration left up to 75°");
@@ -91,9 +124,10 @@ fn finger_folds() {
         assert_eq!(nan, 0, "frame {f}: NaN");
         if folds > 0 {
             assert!(vol < 1e-4, "frame {f}: volume error {vol}");
-            assert!(after * 2 <= before, "frame {f}: penetration {before} -> {after}");
+            assert!(
+                after * 2 <= before,
+                "frame {f}: penetration {before} -> {after}"
+            );
         }
     }
 }
-
-

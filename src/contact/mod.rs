@@ -308,7 +308,9 @@ fn inside_by_winding(parts: [SideFrame; 2], regions: &mut [IntersectionRegion; 2
                 used[v as usize] = true;
             }
         }
-        let verts: Vec<u32> = (0..positions.len() as u32).filter(|&v| used[v as usize]).collect();
+        let verts: Vec<u32> = (0..positions.len() as u32)
+            .filter(|&v| used[v as usize])
+            .collect();
         let nudged: Vec<Point3<f64>> = verts
             .iter()
             .map(|&v| positions[v as usize] - part.normals[v as usize] * (1e-3 * h))
@@ -320,11 +322,18 @@ fn inside_by_winding(parts: [SideFrame; 2], regions: &mut [IntersectionRegion; 2
         }
         let (mut whole, mut cut) = (Vec::new(), Vec::new());
         for &f in faces {
-            let n = triangles[f as usize].iter().filter(|&&v| inside[v as usize]).count();
+            let n = triangles[f as usize]
+                .iter()
+                .filter(|&&v| inside[v as usize])
+                .count();
             if n == 3 {
                 whole.push(f);
             } else if n > 0 {
-                cut.push(crate::intersect::CutFace { face: f, sub_triangles: Vec::new(), holes: Vec::new() });
+                cut.push(crate::intersect::CutFace {
+                    face: f,
+                    sub_triangles: Vec::new(),
+                    holes: Vec::new(),
+                });
             }
         }
         region.inside = inside;

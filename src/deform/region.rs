@@ -502,9 +502,8 @@ fn effective_extent(
     free_border: Option<&[bool]>,
     stats: &mut DeformStats,
 ) -> f64 {
-    let free = |l: usize| {
-        free_border.is_some_and(|f| f.get(region.vertices[l] as usize) == Some(&true))
-    };
+    let free =
+        |l: usize| free_border.is_some_and(|f| f.get(region.vertices[l] as usize) == Some(&true));
     let border_min = (0..region.vertex_count())
         .filter(|&l| region.border[l] && !boundary.inside[l] && !free(l))
         .map(|l| phi[l])

@@ -104,7 +104,12 @@ pub fn crease_cut(input: &CreaseInput, params: &CreaseParams) -> Result<Crease, 
         let (sa, sb) = (shared[a as usize], shared[b as usize]);
         if sa && sb {
             let cap = e.dual * (0.1 + min_facing(input, a, b));
-            g.add_edge(node[a as usize] as usize, node[b as usize] as usize, cap, cap)?;
+            g.add_edge(
+                node[a as usize] as usize,
+                node[b as usize] as usize,
+                cap,
+                cap,
+            )?;
         }
         for (s, o) in [(a, b), (b, a)] {
             if shared[s as usize] && !shared[o as usize] {
@@ -124,11 +129,19 @@ pub fn crease_cut(input: &CreaseInput, params: &CreaseParams) -> Result<Crease, 
         } else if near_intersection[v] {
             let g = input.normals[v].dot(&input.direction);
             let w = params.intersection_weight / mean_edge * area[v] * g.abs();
-            if g > 0.0 { src = w } else { snk = w }
+            if g > 0.0 {
+                src = w
+            } else {
+                snk = w
+            }
         } else {
             let b = input.beta[v].clamp(0.0, 1.0);
             let w = params.beta_weight / mean_edge * area[v] * (2.0 * b - 1.0).abs();
-            if b > 0.5 { src = w } else { snk = w }
+            if b > 0.5 {
+                src = w
+            } else {
+                snk = w
+            }
         }
         g.add_terminal(k, src, snk)?;
     }
@@ -138,7 +151,11 @@ pub fn crease_cut(input: &CreaseInput, params: &CreaseParams) -> Result<Crease, 
         on_w1[v as usize] = cut.source_side[k];
     }
     let stray = keep_attached(input, &edges, &shared, &mut on_w1);
-    Ok(Crease { on_w1, value: cut.value, stray })
+    Ok(Crease {
+        on_w1,
+        value: cut.value,
+        stray,
+    })
 }
 
 /// An edge of `W1 ∪ W2` with its dual length.
@@ -153,15 +170,22 @@ fn region_edges(input: &CreaseInput) -> Vec<Edge> {
     for &f in input.faces {
         let t = input.triangles[f as usize];
         let centroid = Point3::from(
-            t.iter().map(|&v| input.positions[v as usize].coords).sum::<Vector3<f64>>() / 3.0,
+            t.iter()
+                .map(|&v| input.positions[v as usize].coords)
+                .sum::<Vector3<f64>>()
+                / 3.0,
         );
         for k in 0..3 {
             let (a, b) = (t[k], t[(k + 1) % 3]);
-            let mid = Point3::from((input.positions[a as usize].coords + input.positions[b as usize].coords) * 0.5);
+            let mid = Point3::from(
+                (input.positions[a as usize].coords + input.positions[b as usize].coords) * 0.5,
+            );
             *map.entry((a.min(b), a.max(b))).or_insert(0.0) += (centroid - mid).norm();
         }
     }
-    map.into_iter().map(|((a, b), dual)| Edge { ends: [a, b], dual }).collect()
+    map.into_iter()
+        .map(|((a, b), dual)| Edge { ends: [a, b], dual })
+        .collect()
 }
 
 fn mean_length(positions: &[Point3<f64>], edges: &[Edge]) -> f64 {
@@ -206,7 +230,12 @@ fn ring(input: &CreaseInput, edges: &[Edge], seeds: &[u32]) -> Vec<bool> {
 
 /// Keeps only the components of each side attached to that side's part outside `R`; other
 /// components switch. Returns the number of switched vertices.
-fn keep_attached(input: &CreaseInput, edges: &[Edge], shared: &[bool], on_w1: &mut [bool]) -> usize {
+fn keep_attached(
+    input: &CreaseInput,
+    edges: &[Edge],
+    shared: &[bool],
+    on_w1: &mut [bool],
+) -> usize {
     let n = on_w1.len();
     let mut adjacency: Vec<Vec<u32>> = vec![Vec::new(); n];
     for e in edges {

@@ -12,7 +12,9 @@
 
 use super::crease::{crease_cut, Crease, CreaseInput, CreaseParams};
 use super::regions::PairRegions;
-use crate::contact::{resolve_self_pair, Contact, ContactSide, DirectionMode, PairParams, SideFrame};
+use crate::contact::{
+    resolve_self_pair, Contact, ContactSide, DirectionMode, PairParams, SideFrame,
+};
 use crate::deform::region::{bulge_height, shape_region};
 use crate::deform::{DeformParams, DeformStats, RegionFrame, WorkingRegion};
 use crate::heat::{Boundary, EdgePoint};
@@ -129,15 +131,36 @@ impl FoldPre {
         let n = rest.len();
         let w1 = WorkingRegion::new(triangles, regions.w1_faces.iter().copied(), n)?;
         let w2 = WorkingRegion::new(triangles, regions.w2_faces.iter().copied(), n)?;
-        let in_r = |f: &u32| triangles[*f as usize].iter().all(|&v| regions.w1[v as usize] && regions.w2[v as usize]);
-        let shared = WorkingRegion::new(triangles, regions.w1_faces.iter().filter(|f| in_r(f)).copied(), n)?;
-        let mut faces: Vec<u32> = regions.w1_faces.iter().chain(&regions.w2_faces).copied().collect();
+        let in_r = |f: &u32| {
+            triangles[*f as usize]
+                .iter()
+                .all(|&v| regions.w1[v as usize] && regions.w2[v as usize])
+        };
+        let shared = WorkingRegion::new(
+            triangles,
+            regions.w1_faces.iter().filter(|f| in_r(f)).copied(),
+            n,
+        )?;
+        let mut faces: Vec<u32> = regions
+            .w1_faces
+            .iter()
+            .chain(&regions.w2_faces)
+            .copied()
+            .collect();
         faces.sort_unstable();
         faces.dedup();
         let labels = rest_labels(triangles, &regions);
         let detect = MeshIndex::self_contact_parts(rest, triangles, &labels)?;
         let closed = crate::deform::WorkingRegion::whole(triangles, n)?.closed;
-        Ok(Self { regions, w1, w2, shared, detect, faces, closed })
+        Ok(Self {
+            regions,
+            w1,
+            w2,
+            shared,
+            detect,
+            faces,
+            closed,
+        })
     }
 }
 
@@ -151,7 +174,11 @@ fn rest_labels(triangles: &[[u32; 3]], r: &PairRegions) -> Vec<u8> {
                 return 0;
             }
             let b = t.iter().map(|&v| r.beta[v as usize]).sum::<f64>() / 3.0;
-            if b >= 0.5 { 1 } else { 2 }
+            if b >= 0.5 {
+                1
+            } else {
+                2
+            }
         })
         .collect()
 }
@@ -167,7 +194,10 @@ pub fn resolve_fold(
 ) -> Result<Option<FoldOutput>, FoldError> {
     let mut timings = FoldTimings::default();
     let clock = Instant::now();
-    let parts = [pre.detect[0].pose(positions)?, pre.detect[1].pose(positions)?];
+    let parts = [
+        pre.detect[0].pose(positions)?,
+        pre.detect[1].pose(positions)?,
+    ];
     let ints = Intersections::self_contact(&parts[0], &parts[1])?;
     timings.detection = clock.elapsed().as_secs_f64();
     if ints.is_empty() {
@@ -209,8 +239,14 @@ pub fn resolve_fold(
     };
     let t0 = clock.elapsed().as_secs_f64();
     let contact = resolve_self_pair(
-        SideFrame { mesh: &posed[0], normals },
-        SideFrame { mesh: &posed[1], normals },
+        SideFrame {
+            mesh: &posed[0],
+            normals,
+        },
+        SideFrame {
+            mesh: &posed[1],
+            normals,
+        },
         &pair,
     )?;
     timings.contact = clock.elapsed().as_secs_f64() - t0;
@@ -243,16 +279,34 @@ pub fn resolve_fold(
         if !(in1 || in2) {
             continue;
         }
-        let b = if in1 && in2 { r.beta[v].clamp(0.0, 1.0) } else if in1 { 1.0 } else { 0.0 };
+        let b = if in1 && in2 {
+            r.beta[v].clamp(0.0, 1.0)
+        } else if in1 {
+            1.0
+        } else {
+            0.0
+        };
         base[v] = Point3::from(s1.base[v].coords * b + s2.base[v].coords * (1.0 - b));
         bulge[v] = s1.bulge_unit[v] * b + s2.bulge_unit[v] * (1.0 - b);
     }
-    let h = if pre.closed { bulge_height(triangles, positions, &base, &bulge)?.0 } else { 0.0 };
+    let h = if pre.closed {
+        bulge_height(triangles, positions, &base, &bulge)?.0
+    } else {
+        0.0
+    };
     let gamma = params.deform.gamma;
-    let out: Vec<Point3<f64>> = base.iter().zip(&bulge).map(|(p, q)| p + q * (gamma * h)).collect();
+    let out: Vec<Point3<f64>> = base
+        .iter()
+        .zip(&bulge)
+        .map(|(p, q)| p + q * (gamma * h))
+        .collect();
     timings.volume = clock.elapsed().as_secs_f64() - t0;
     let own = |sh: &crate::deform::RegionDeformation| -> Vec<Point3<f64>> {
-        sh.base.iter().zip(&sh.bulge_unit).map(|(p, q)| p + q * (gamma * h)).collect()
+        sh.base
+            .iter()
+            .zip(&sh.bulge_unit)
+            .map(|(p, q)| p + q * (gamma * h))
+            .collect()
     };
     let region_positions = [own(&s1), own(&s2)];
     Ok(Some(FoldOutput {
@@ -309,19 +363,30 @@ fn sigma_field(
     if region.vertex_count() == 0 {
         return Ok(sigma);
     }
-    let inside: Vec<bool> = region.vertices.iter().map(|&v| zone_sign(v as usize).is_some()).collect();
+    let inside: Vec<bool> = region
+        .vertices
+        .iter()
+        .map(|&v| zone_sign(v as usize).is_some())
+        .collect();
     // Exact points of the zones on R's edges, with the sign of their zone; every edge leaving
     // the zones gets one (at the zone vertex if the contact has none on it).
     let mut exact: std::collections::HashMap<u32, (f64, f64)> = std::collections::HashMap::new();
     for (k, side) in contact.sides.iter().enumerate() {
         let sign = if k == 0 { 1.0 } else { -1.0 };
         for bp in &side.zone.boundary {
-            let (li, lj) = (pre.shared.local_of[bp.inside as usize], pre.shared.local_of[bp.outside as usize]);
+            let (li, lj) = (
+                pre.shared.local_of[bp.inside as usize],
+                pre.shared.local_of[bp.outside as usize],
+            );
             if li == u32::MAX || lj == u32::MAX {
                 continue;
             }
             if let Some(e) = region.edge(li, lj) {
-                let alpha_first = if region.edges[e as usize][0] == li { bp.alpha } else { 1.0 - bp.alpha };
+                let alpha_first = if region.edges[e as usize][0] == li {
+                    bp.alpha
+                } else {
+                    1.0 - bp.alpha
+                };
                 exact.insert(e, (alpha_first, sign));
             }
         }
@@ -337,7 +402,10 @@ fn sigma_field(
             let s = zone_sign(region.vertices[zone_vertex as usize] as usize).unwrap_or(0.0);
             (if zone_vertex == a { 0.0 } else { 1.0 }, s)
         });
-        points.push(EdgePoint { edge: e as u32, alpha });
+        points.push(EdgePoint {
+            edge: e as u32,
+            alpha,
+        });
         values.push(sign);
     }
     // R's borders toward W1 \ R (+1) and W2 \ R (-1).
@@ -370,7 +438,11 @@ fn sigma_field(
             _ => {}
         }
     }
-    let boundary = Boundary { inside: inside.clone(), points, vertices: fixed };
+    let boundary = Boundary {
+        inside: inside.clone(),
+        points,
+        vertices: fixed,
+    };
     let local = region.gather(positions);
     let mut problem = pre.shared.solver.problem(&local, &boundary)?;
     let solved = problem.harmonic(&values)?;

@@ -87,7 +87,11 @@ impl SelfContactPass {
         directions: &[(String, Vector3<f64>)],
     ) -> Result<Self, SelfPassError> {
         if rest.len() != welded.len() {
-            return Err(SelfPassError::Mismatch(format!("{} bodies, {} position sets", welded.len(), rest.len())));
+            return Err(SelfPassError::Mismatch(format!(
+                "{} bodies, {} position sets",
+                welded.len(),
+                rest.len()
+            )));
         }
         let mut folds = Vec::new();
         for regions in derive_pairs(rig, welded, options)? {
@@ -100,15 +104,27 @@ impl SelfContactPass {
                 .and_then(|(_, d)| d.try_normalize(1e-300));
             let pre = FoldPre::new(&rest[body], &welded[body].triangles, regions)
                 .map_err(|source| SelfPassError::Fold { name, source })?;
-            folds.push(Fold { body, pre, axes, direction });
+            folds.push(Fold {
+                body,
+                pre,
+                axes,
+                direction,
+            });
         }
         let triangles = welded.iter().map(|w| w.triangles.clone()).collect();
-        Ok(Self { folds, params, triangles })
+        Ok(Self {
+            folds,
+            params,
+            triangles,
+        })
     }
 
     /// Names of the joint pairs, with their body.
     pub fn pairs(&self) -> Vec<(usize, String)> {
-        self.folds.iter().map(|f| (f.body, f.pre.regions.pair.name.clone())).collect()
+        self.folds
+            .iter()
+            .map(|f| (f.body, f.pre.regions.pair.name.clone()))
+            .collect()
     }
 
     /// Resolves every fold of a frame in place (`positions`: welded positions per body, `pose`
@@ -120,15 +136,19 @@ impl SelfContactPass {
         positions: &mut [Vec<Point3<f64>>],
     ) -> Result<SelfPassOutput, SelfPassError> {
         if positions.len() != self.triangles.len() {
-            return Err(SelfPassError::Mismatch(format!("{} bodies, {} position sets", self.triangles.len(), positions.len())));
+            return Err(SelfPassError::Mismatch(format!(
+                "{} bodies, {} position sets",
+                self.triangles.len(),
+                positions.len()
+            )));
         }
         let mut out = SelfPassOutput::default();
         for fold in &self.folds {
             let name = &fold.pre.regions.pair.name;
             let tris = &self.triangles[fold.body];
-            let direction = fold
-                .direction
-                .or_else(|| skeleton_direction(rig, pose, &fold.pre.regions.pair, fold.axes.leaf_axis));
+            let direction = fold.direction.or_else(|| {
+                skeleton_direction(rig, pose, &fold.pre.regions.pair, fold.axes.leaf_axis)
+            });
             let Some(direction) = direction else {
                 out.no_direction += 1;
                 continue;
@@ -136,11 +156,19 @@ impl SelfContactPass {
             let pos = &positions[fold.body];
             let normals = vertex_normals(pos, tris, NormalWeighting::Area);
             let result = resolve_fold(&fold.pre, pos, &normals, tris, direction, &self.params)
-                .map_err(|source| SelfPassError::Fold { name: name.clone(), source })?;
+                .map_err(|source| SelfPassError::Fold {
+                    name: name.clone(),
+                    source,
+                })?;
             if let Some(o) = result {
                 add(&mut out.timings, &o.timings);
                 positions[fold.body].clone_from(&o.positions);
-                out.folds.push(FoldReport { body: fold.body, name: name.clone(), direction, output: o });
+                out.folds.push(FoldReport {
+                    body: fold.body,
+                    name: name.clone(),
+                    direction,
+                    output: o,
+                });
             }
         }
         Ok(out)
