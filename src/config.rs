@@ -17,16 +17,32 @@
 //! objects = ["ball", "thumb"]
 //! tau = 0.6
 //! direction = [0.0, 1.0, 0.0]     # or direction_keys = [[t, x, y, z], ...]
+//! [self_contact]                  # optional: joints folding into themselves
+//! enabled = true
+//! threshold = 0.05                # RegionOptions::threshold
+//! grow_rings = 2
+//! stiffness = 0.5                 # k̄ of the parent side, in [0, 1]
+//! tau = 0.0
+//! extent = 0.2                    # or extent_factor (× rest bbox diagonal)
+//! gamma = 1.0
+//! omega = 2.0
+//! [[self_contact.pair]]
+//! name = "lips/head-jaw"          # a derived joint pair (`contact-skin info`)
+//! direction = [0.0, -1.0, 0.0]    # W1's (parent side's) outward direction at the fold
 //! ```
 //!
 //! [`ContactConfig::load`] parses and checks every number (no rig needed);
 //! [`ContactConfig::resolve`] maps names to bodies and reads the painted bulge maps, giving the
-//! inputs of [`crate::pass::ContactPass::new`]. Every error is a [`ConfigError`] naming the file
-//! and the field (`object[1].stiffness`, `pair[0].direction_keys[2]`, ...).
+//! inputs of [`crate::pass::ContactPass::new`]; [`ContactConfig::resolve_self_contact`] gives
+//! those of [`crate::selfcontact::pass::SelfContactPass::new`]. Every error is a
+//! [`ConfigError`] naming the file and the field (`object[1].stiffness`,
+//! `pair[0].direction_keys[2]`, `self_contact.pair[0].name`, ...).
 
 use crate::mesh::{bbox_diagonal, WeldedMesh};
 use crate::pass::{DirectionTrack, ObjectParams, PairOverride, DEFAULT_PASSES};
 use crate::rig::{Confinement, Rig};
+use crate::selfcontact::fold::FoldParams;
+use crate::selfcontact::{derive_pairs, RegionOptions, SelfContactError};
 use nalgebra::Vector3;
 use serde::de::{self, Deserializer, Visitor};
 use serde::Deserialize;
@@ -41,6 +57,9 @@ pub const ATTRIBUTE_PREFIX: &str = "attribute:";
 
 /// Largest accepted `passes`.
 pub const MAX_PASSES: usize = 16;
+
+/// Largest accepted `self_contact.grow_rings`.
+pub const MAX_GROW_RINGS: usize = 64;
 
 /// Largest configuration or bulge-map file read (64 MiB): a guard against absurd inputs.
 pub const MAX_FILE_BYTES: u64 = 64 << 20;
@@ -137,6 +156,30 @@ pub enum ConfigError {
         /// Values found.
         got: usize,
     },
+    /// A `[[self_contact.pair]]` naming no joint pair derived from the rig.
+    #[error("{file}: {field}: no joint pair '{name}' in the rig (derived pairs: {available})")]
+    UnknownPair {
+        /// The configuration file.
+        file: PathBuf,
+        /// The field at fault.
+        field: String,
+        /// The name given.
+        name: String,
+        /// The pairs derived from the rig's skin weights (`lips/head-jaw`), or `none`.
+        available: String,
+    },
+    /// The joint pairs could not be derived from the rig (needed to check the pair names of
+    /// `[self_contact]` and to resolve its `extent_factor`).
+    #[error("{file}: {field}: cannot derive the joint pairs of the rig: {source}")]
+    SelfContact {
+        /// The configuration file.
+        file: PathBuf,
+        /// The field that needed the pairs.
+        field: String,
+        /// The underlying error.
+        #[source]
+        source: SelfContactError,
+    },
     /// `attribute:NAME` naming no custom attribute of the body.
     #[error(
         "{file}: {field}: body '{body}' has no custom vertex attribute '{attribute}' (available: {available})"
@@ -166,6 +209,8 @@ impl ConfigError {
             | ConfigError::Duplicate { field, .. }
             | ConfigError::BulgeMap { field, .. }
             | ConfigError::BulgeCount { field, .. }
+            | ConfigError::UnknownPair { field, .. }
+            | ConfigError::SelfContact { field, .. }
             | ConfigError::UnknownAttribute { field, .. } => field,
         }
     }
@@ -341,6 +386,57 @@ pub struct PairSpec {
     pub direction_keys: Option<Vec<[f64; 4]>>,
 }
 
+/// The `[self_contact]` table as written (every value optional).
+#[derive(Clone, Debug, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SelfContactSpec {
+    /// Run the self-contact pass (default `true`).
+    pub enabled: Option<bool>,
+    /// [`RegionOptions::threshold`]: weight above which a vertex belongs to a working region.
+    pub threshold: Option<f64>,
+    /// [`RegionOptions::grow_rings`].
+    pub grow_rings: Option<usize>,
+    /// `k̄` of the parent side W1 ([`FoldParams::stiffness_1`]), in `[0, 1]`.
+    pub stiffness: Option<f64>,
+    /// `τ` of Eq. 4.
+    pub tau: Option<f64>,
+    /// `φ̄` in scene units.
+    pub extent: Option<f64>,
+    /// `φ̄` as a fraction of the rest bounding-box diagonal of the body.
+    pub extent_factor: Option<f64>,
+    /// `γ`.
+    pub gamma: Option<f64>,
+    /// `ω`.
+    pub omega: Option<f64>,
+    /// Per-pair settings.
+    #[serde(default, rename = "pair")]
+    pub pairs: Vec<SelfPairSpec>,
+}
+
+/// One `[[self_contact.pair]]` table.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SelfPairSpec {
+    /// The pair's name as derived (`body/parent-child`, listed by `contact-skin info`).
+    pub name: String,
+    /// The mapping direction `d̂_12`: W1's (the parent side's) outward direction at the fold.
+    pub direction: [f64; 3],
+}
+
+/// The self-contact pass settings resolved from a configuration: the inputs of
+/// [`crate::selfcontact::pass::SelfContactPass::new`] and whether to run it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SelfContactSettings {
+    /// Run the pass (`[self_contact] enabled`, default `true`).
+    pub enabled: bool,
+    /// How working regions are derived.
+    pub regions: RegionOptions,
+    /// Parameters of every fold.
+    pub params: FoldParams,
+    /// User directions by pair name (normalized).
+    pub directions: Vec<(String, Vector3<f64>)>,
+}
+
 /// A rig's contact configuration (see the module documentation).
 #[derive(Clone, Debug, Default, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -356,6 +452,9 @@ pub struct ContactConfig {
     /// Per-pair overrides.
     #[serde(default, rename = "pair")]
     pub pairs: Vec<PairSpec>,
+    /// The `[self_contact]` table (`None` when the file has none: the pass defaults).
+    #[serde(default)]
+    pub self_contact: Option<SelfContactSpec>,
     /// The file it was read from (named in errors).
     #[serde(skip)]
     pub file: PathBuf,
@@ -510,6 +609,64 @@ impl ContactConfig {
         }
         for (j, p) in self.pairs.iter().enumerate() {
             self.check_pair(p, &format!("pair[{j}]"))?;
+        }
+        if let Some(sc) = &self.self_contact {
+            self.check_self_contact(sc)?;
+        }
+        Ok(())
+    }
+
+    fn check_self_contact(&self, sc: &SelfContactSpec) -> Result<(), ConfigError> {
+        let at = "self_contact";
+        if let Some(t) = sc.threshold {
+            if !(t.is_finite() && (0.0..1.0).contains(&t)) {
+                return Err(self.invalid(
+                    format!("{at}.threshold"),
+                    format!("{t} is not in [0, 1) (a skin weight)"),
+                ));
+            }
+        }
+        if let Some(r) = sc.grow_rings {
+            if r > MAX_GROW_RINGS {
+                return Err(self.invalid(
+                    format!("{at}.grow_rings"),
+                    format!("{r} is not in 0..={MAX_GROW_RINGS}"),
+                ));
+            }
+        }
+        if let Some(k) = sc.stiffness {
+            if !(k.is_finite() && (0.0..=1.0).contains(&k)) {
+                return Err(self.invalid(
+                    format!("{at}.stiffness"),
+                    format!("{k} is not in [0, 1] (k̄, the share of the parent side)"),
+                ));
+            }
+        }
+        let params = ParamSpec {
+            stiffness: None,
+            tau: sc.tau,
+            extent: sc.extent,
+            extent_factor: sc.extent_factor,
+            gamma: sc.gamma,
+            omega: sc.omega,
+        };
+        self.check_params(&params, at)?;
+        for (j, p) in sc.pairs.iter().enumerate() {
+            let field = format!("{at}.pair[{j}]");
+            if p.name.trim().is_empty() {
+                return Err(self.invalid(format!("{field}.name"), "is empty"));
+            }
+            if let Some(first) = sc.pairs[..j].iter().position(|o| o.name == p.name) {
+                return Err(ConfigError::Duplicate {
+                    file: self.file.clone(),
+                    field: format!("{field}.name"),
+                    what: format!("joint pair '{}'", p.name),
+                    first: format!("{at}.pair[{first}]"),
+                });
+            }
+            if unit(&p.direction).is_none() {
+                return Err(self.invalid(format!("{field}.direction"), "is zero or not finite"));
+            }
         }
         Ok(())
     }
@@ -784,6 +941,161 @@ fn object_params(p: &ParamSpec, rest_diagonal: f64) -> ObjectParams {
         omega: p.omega.unwrap_or(d.omega),
         painted: None,
     }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Self-contact
+
+impl ContactConfig {
+    /// Whether the self-contact pass runs (`[self_contact] enabled`, default `true`).
+    pub fn self_contact_enabled(&self) -> bool {
+        self.self_contact
+            .as_ref()
+            .and_then(|s| s.enabled)
+            .unwrap_or(true)
+    }
+
+    /// How working regions are derived: `threshold` and `grow_rings` of `[self_contact]`, else
+    /// [`RegionOptions::default`].
+    pub fn self_contact_regions(&self) -> RegionOptions {
+        let d = RegionOptions::default();
+        let s = self.self_contact.as_ref();
+        RegionOptions {
+            threshold: s.and_then(|s| s.threshold).unwrap_or(d.threshold),
+            grow_rings: s.and_then(|s| s.grow_rings).unwrap_or(d.grow_rings),
+        }
+    }
+
+    /// Whether resolving `[self_contact]` needs the rig's derived joint pairs: pair names to
+    /// check, or an `extent_factor` (relative to the bodies that have pairs).
+    pub fn self_contact_needs_pairs(&self) -> bool {
+        self.self_contact
+            .as_ref()
+            .is_some_and(|s| !s.pairs.is_empty() || s.extent_factor.is_some())
+    }
+
+    /// Resolves `[self_contact]` against `rig` (`welded`: its welded bodies, in body order),
+    /// deriving the joint pairs ([`derive_pairs`] with [`Self::self_contact_regions`]) only
+    /// when [`Self::self_contact_needs_pairs`]. See [`Self::resolve_self_contact_with`].
+    pub fn resolve_self_contact(
+        &self,
+        rig: &Rig,
+        welded: &[WeldedMesh],
+    ) -> Result<SelfContactSettings, ConfigError> {
+        let derived: Vec<(usize, String)> = if self.self_contact_needs_pairs() {
+            let field = match self.self_contact.as_ref() {
+                Some(s) if !s.pairs.is_empty() => "self_contact.pair[0].name",
+                _ => "self_contact.extent_factor",
+            };
+            derive_pairs(rig, welded, &self.self_contact_regions())
+                .map_err(|source| ConfigError::SelfContact {
+                    file: self.file.clone(),
+                    field: field.into(),
+                    source,
+                })?
+                .into_iter()
+                .map(|r| (r.pair.body, r.pair.name))
+                .collect()
+        } else {
+            Vec::new()
+        };
+        self.resolve_self_contact_with(rig, &derived)
+    }
+
+    /// Resolves `[self_contact]` given the joint pairs derived from the rig, `(body, name)` as
+    /// [`derive_pairs`] or [`crate::selfcontact::pass::SelfContactPass::pairs`] give them:
+    /// every value the file does not set keeps [`FoldParams::default`] (and
+    /// [`RegionOptions::default`]); `extent_factor` multiplies the rest bounding-box diagonal
+    /// ([`rest_diagonals`]) of the body of the pairs (the largest when several bodies have
+    /// pairs, since one [`FoldParams`] serves every pair); a `[[self_contact.pair]]` naming no
+    /// derived pair is a [`ConfigError::UnknownPair`] listing the derived names. Directions
+    /// are normalized.
+    pub fn resolve_self_contact_with(
+        &self,
+        rig: &Rig,
+        derived: &[(usize, String)],
+    ) -> Result<SelfContactSettings, ConfigError> {
+        let spec = self.self_contact.clone().unwrap_or_default();
+        let mut params = FoldParams::default();
+        if let Some(k) = spec.stiffness {
+            params.stiffness_1 = k;
+        }
+        if let Some(t) = spec.tau {
+            params.tau = t;
+        }
+        if let Some(g) = spec.gamma {
+            params.deform.gamma = g;
+        }
+        if let Some(w) = spec.omega {
+            params.deform.omega = w;
+        }
+        if let Some(e) = spec.extent {
+            params.deform.extent = e;
+        } else if let Some(f) = spec.extent_factor {
+            let diagonals = rest_diagonals(rig);
+            let with_pairs = derived
+                .iter()
+                .filter_map(|(b, _)| diagonals.get(*b).copied())
+                .fold(f64::NAN, f64::max);
+            let all = diagonals.iter().copied().fold(f64::NAN, f64::max);
+            let diagonal = if with_pairs.is_nan() { all } else { with_pairs };
+            let extent = f * diagonal;
+            if !(extent.is_finite() && extent > 0.0) {
+                return Err(self.invalid(
+                    "self_contact.extent_factor",
+                    format!("gives the extent {extent} (rest diagonal {diagonal})"),
+                ));
+            }
+            params.deform.extent = extent;
+        }
+        let mut directions = Vec::with_capacity(spec.pairs.len());
+        for (j, p) in spec.pairs.iter().enumerate() {
+            let at = format!("self_contact.pair[{j}]");
+            if !derived.iter().any(|(_, n)| *n == p.name) {
+                return Err(ConfigError::UnknownPair {
+                    file: self.file.clone(),
+                    field: format!("{at}.name"),
+                    name: p.name.clone(),
+                    available: list_pairs(derived),
+                });
+            }
+            let d = unit(&p.direction)
+                .ok_or_else(|| self.invalid(format!("{at}.direction"), "is zero or not finite"))?;
+            directions.push((p.name.clone(), d));
+        }
+        Ok(SelfContactSettings {
+            enabled: self.self_contact_enabled(),
+            regions: self.self_contact_regions(),
+            params,
+            directions,
+        })
+    }
+}
+
+/// `lips/head-jaw, ...` (at most 40 listed), or `none`.
+fn list_pairs(derived: &[(usize, String)]) -> String {
+    let mut s: Vec<String> = derived.iter().take(40).map(|(_, n)| n.clone()).collect();
+    if derived.len() > 40 {
+        s.push(format!("... ({} in all)", derived.len()));
+    }
+    if s.is_empty() {
+        "none".into()
+    } else {
+        s.join(", ")
+    }
+}
+
+/// `d` normalized (scaled first, so that huge or tiny finite components work); `None` when
+/// zero or not finite.
+fn unit(d: &[f64; 3]) -> Option<Vector3<f64>> {
+    if !usable_direction(d) {
+        return None;
+    }
+    let v = Vector3::from(*d);
+    let m = v.amax();
+    (v / m)
+        .try_normalize(0.0)
+        .filter(|u| u.iter().all(|x| x.is_finite()))
 }
 
 // ---------------------------------------------------------------------------------------------

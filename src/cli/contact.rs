@@ -1,43 +1,62 @@
-//! The contact pass as the command line runs it: configuration discovery, the one
-//! [`ContactPass`] of a run, per-frame evaluation (skinning → welded → pass → file vertices),
-//! the `frame_NNNN.diag.json` diagnostics and median stage timings.
+//! The contact passes as the command line runs them: configuration discovery, the one
+//! [`ContactPass`] (objects) and [`SelfContactPass`] (joints folding into themselves) of a
+//! run, per-frame evaluation (skinning → welded → object pass → self-contact pass → file
+//! vertices), the `frame_NNNN.diag.json` diagnostics and median stage timings.
 
-use contact_skin::config::ContactConfig;
+use contact_skin::config::{ContactConfig, SelfContactSettings};
 use contact_skin::frames::{self, Frame, Precomputed};
 use contact_skin::pass::{ContactPass, PassOutput, RestBody, StageTimings};
 use contact_skin::rig::Rig;
+use contact_skin::selfcontact::fold::FoldTimings;
+use contact_skin::selfcontact::pass::{SelfContactPass, SelfPassOutput};
 use nalgebra::Point3;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
+use std::time::Instant;
 
 /// Boxed error of the command line.
 pub type BoxError = Box<dyn std::error::Error + Send + Sync>;
 
-/// The contact pass of one run, shared by every frame.
+/// The contact passes of one run, shared by every frame.
 pub struct ContactRun {
-    /// The precomputed pass.
+    /// The precomputed object-vs-object pass.
     pub pass: ContactPass,
     /// The configuration file used, if any.
     pub config: Option<PathBuf>,
     /// Passes per frame.
     pub passes: usize,
+    /// The self-contact pass (`None`: off, by `--no-self-contact` or `[self_contact] enabled
+    /// = false`).
+    pub self_contact: Option<SelfRun>,
+}
+
+/// The self-contact pass of one run.
+pub struct SelfRun {
+    /// The precomputed pass (regions, partition of unity, per-pair analyses).
+    pub pass: SelfContactPass,
+    /// The settings it was built with.
+    pub settings: SelfContactSettings,
+    /// Its joint pairs, `(body, name)`, in the order they are resolved.
+    pub pairs: Vec<(usize, String)>,
 }
 
 impl ContactRun {
     /// Finds the configuration (`config`, else `<rig stem>.contact.toml` next to the rig, else
-    /// defaults), resolves it against `rig` and precomputes the pass on the rest pose.
-    /// `passes` overrides the configuration's.
+    /// defaults), resolves it against `rig` and precomputes the passes on the rest pose.
+    /// `passes` overrides the configuration's; `self_contact = false` leaves the self-contact
+    /// pass out (as does `[self_contact] enabled = false`).
     pub fn new(
         rig_path: &Path,
         rig: &Rig,
         pre: &Precomputed,
         config: Option<&Path>,
         passes: Option<usize>,
+        self_contact: bool,
     ) -> Result<Self, BoxError> {
         let found = ContactConfig::for_rig(rig_path, config)?;
         let used = found.as_ref().map(|c| c.file.clone());
-        let (params, overrides, file_passes) =
-            found.unwrap_or_default().resolve(rig, &pre.welded)?;
+        let cfg = found.unwrap_or_default();
+        let (params, overrides, file_passes) = cfg.resolve(rig, &pre.welded)?;
         let rest = rest_welded(rig, pre);
         let bodies: Vec<RestBody> = rest
             .iter()
@@ -53,10 +72,49 @@ impl ContactRun {
                 )
             })?
             .with_passes(passes);
+        let self_contact = if self_contact && cfg.self_contact_enabled() {
+            Some(SelfRun::new(rig_path, rig, pre, &cfg, &rest)?)
+        } else {
+            None
+        };
         Ok(Self {
             pass,
             config: used,
             passes,
+            self_contact,
+        })
+    }
+}
+
+impl SelfRun {
+    /// Resolves `[self_contact]` and precomputes the pass on `rest` (welded rest positions).
+    fn new(
+        rig_path: &Path,
+        rig: &Rig,
+        pre: &Precomputed,
+        cfg: &ContactConfig,
+        rest: &[Vec<Point3<f64>>],
+    ) -> Result<Self, BoxError> {
+        let settings = cfg.resolve_self_contact(rig, &pre.welded)?;
+        let pass = SelfContactPass::new(
+            rig,
+            &pre.welded,
+            rest,
+            &settings.regions,
+            settings.params,
+            &settings.directions,
+        )
+        .map_err(|e| {
+            format!(
+                "{}: self-contact pass: {e} (--no-self-contact skips it)",
+                rig_path.display()
+            )
+        })?;
+        let pairs = pass.pairs();
+        Ok(Self {
+            pass,
+            settings,
+            pairs,
         })
     }
 }
@@ -76,36 +134,76 @@ pub fn welded(frame: &Frame, pre: &Precomputed) -> Vec<Vec<Point3<f64>>> {
         .collect()
 }
 
-/// One frame through the contact pass.
+/// One frame through the contact passes.
 pub struct ContactFrame {
-    /// The frame with the pass's positions on every file vertex.
+    /// The frame with the passes' positions on every file vertex.
     pub frame: Frame,
-    /// The skinned positions (file vertices), before the pass.
+    /// The skinned positions (file vertices), before the passes.
     pub input: Frame,
-    /// The pass's output (welded vertices).
+    /// The object pass's output (welded vertices).
     pub output: PassOutput,
+    /// The self-contact pass's output (`None` when it is off).
+    pub self_output: Option<SelfPassOutput>,
+    /// Wall time of the self-contact pass (s; 0 when it is off).
+    pub self_wall: f64,
+    /// Final welded positions per body: the object pass's output, then the self-contact
+    /// pass's.
+    pub positions: Vec<Vec<Point3<f64>>>,
 }
 
-/// Skins frame `index` at time `t` and runs the pass on it. Every file copy of a welded vertex
-/// the pass moved gets the pass's position; the others keep their skinned position, so a
-/// frame without contact is exactly the skinning result.
+impl ContactFrame {
+    /// Whether body `b` was deformed by either pass.
+    pub fn deformed(&self, b: usize) -> bool {
+        self.output
+            .diagnostics
+            .get(b)
+            .is_some_and(|d| d.stats.is_some())
+            || self
+                .self_output
+                .as_ref()
+                .is_some_and(|s| s.folds.iter().any(|f| f.body == b))
+    }
+
+    /// Folds resolved in this frame.
+    pub fn fold_count(&self) -> usize {
+        self.self_output.as_ref().map_or(0, |s| s.folds.len())
+    }
+}
+
+/// Skins frame `index` at time `t` and runs the passes on it: the object pass, then the
+/// self-contact pass (when on) on its result. Every file copy of a welded vertex the passes
+/// moved gets their position; the others keep their skinned position, so a frame without
+/// contact is exactly the skinning result.
 pub fn run_frame(
     rig: &Rig,
     pre: &Precomputed,
-    pass: &ContactPass,
+    run: &ContactRun,
     animation: Option<usize>,
     index: usize,
     t: f64,
 ) -> Result<ContactFrame, String> {
     let input = frames::evaluate(rig, pre, animation, index, t);
     let before = welded(&input, pre);
-    let output = pass
+    let output = run
+        .pass
         .run_at(&before, t)
         .map_err(|e| format!("frame {index} (t = {t}): contact pass: {e}"))?;
+    let mut positions = output.positions.clone();
+    let (mut self_output, mut self_wall) = (None, 0.0);
+    if let Some(s) = &run.self_contact {
+        let clock = Instant::now();
+        let pose = rig.pose_at(animation, t);
+        let out = s
+            .pass
+            .run(rig, &pose, &mut positions)
+            .map_err(|e| format!("frame {index} (t = {t}): self-contact pass: {e}"))?;
+        self_wall = clock.elapsed().as_secs_f64();
+        self_output = Some(out);
+    }
     let mut frame = input.clone();
     for (b, body) in frame.bodies.iter_mut().enumerate() {
         let w = &pre.welded[b];
-        let (old, new) = (&before[b], &output.positions[b]);
+        let (old, new) = (&before[b], &positions[b]);
         for (f, p) in body.positions.iter_mut().enumerate() {
             let v = w.to_welded[f] as usize;
             if new[v] != old[v] {
@@ -117,6 +215,9 @@ pub fn run_frame(
         frame,
         input,
         output,
+        self_output,
+        self_wall,
+        positions,
     })
 }
 
@@ -138,6 +239,35 @@ pub struct FrameDiagnostics {
     pub later_contacts: usize,
     /// Stage timings in seconds.
     pub timings_s: StageTimings,
+    /// Folds resolved by the self-contact pass, in the order they ran (empty when it is off).
+    pub folds: Vec<FoldDiagnostics>,
+    /// Joint pairs skipped by the self-contact pass for want of a direction (full 180° fold).
+    pub folds_without_direction: usize,
+    /// Wall time of the self-contact pass (s; 0 when it is off).
+    pub self_contact_s: f64,
+}
+
+/// One fold (a joint pair of one body in self-contact) in one frame.
+#[derive(Serialize)]
+pub struct FoldDiagnostics {
+    /// Body index.
+    pub body: usize,
+    /// Pair name (`body/parent-child`).
+    pub name: String,
+    /// `d̂_12` used: W1's (the parent side's) outward direction.
+    pub direction: [f64; 3],
+    /// Welded vertices in the contact zone of each side (W1's first).
+    pub zone_sizes: [usize; 2],
+    /// `ε_c` of the fold's contact.
+    pub threshold: f64,
+    /// Value of the crease min-cut.
+    pub crease_cut: f64,
+    /// Vertices of the shared region that switched side in the crease cut.
+    pub crease_stray: usize,
+    /// The common bulge height (0 on an open mesh).
+    pub bulge_height: f64,
+    /// Step timings of the fold in seconds.
+    pub timings_s: FoldTimings,
 }
 
 /// Diagnostics of one body, one entry per file vertex (scattered from welded vertices).
@@ -234,6 +364,28 @@ pub fn diagnostics(rig: &Rig, pre: &Precomputed, c: &ContactFrame) -> FrameDiagn
             }
         })
         .collect();
+    let folds = c
+        .self_output
+        .iter()
+        .flat_map(|s| &s.folds)
+        .map(|f| {
+            let o = &f.output;
+            FoldDiagnostics {
+                body: f.body,
+                name: f.name.clone(),
+                direction: [f.direction.x, f.direction.y, f.direction.z],
+                zone_sizes: [
+                    o.contact.sides[0].zone.vertices.len(),
+                    o.contact.sides[1].zone.vertices.len(),
+                ],
+                threshold: o.contact.threshold,
+                crease_cut: o.crease.value,
+                crease_stray: o.crease.stray,
+                bulge_height: o.bulge_height,
+                timings_s: o.timings,
+            }
+        })
+        .collect();
     FrameDiagnostics {
         frame: c.frame.index,
         time: c.frame.time,
@@ -241,6 +393,9 @@ pub fn diagnostics(rig: &Rig, pre: &Precomputed, c: &ContactFrame) -> FrameDiagn
         contacts,
         later_contacts: c.output.later_contacts,
         timings_s: c.output.timings,
+        folds,
+        folds_without_direction: c.self_output.as_ref().map_or(0, |s| s.no_direction),
+        self_contact_s: c.self_wall,
     }
 }
 
@@ -285,6 +440,41 @@ pub fn median_stages(timings: &[StageTimings]) -> StageMs {
         fields: m(|t| t.fields),
         deformation: m(|t| t.deformation),
         wall: m(|t| t.wall),
+    }
+}
+
+/// Median time per step of the folds in milliseconds (the fields of [`FoldTimings`], summed
+/// over the folds of a frame), and `wall`, the whole self-contact pass.
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct FoldMs {
+    /// Detection with the rest partition.
+    pub detection: f64,
+    /// Crease cut and truncated parts.
+    pub crease: f64,
+    /// Contact surface and zones.
+    pub contact: f64,
+    /// Direction field `σ`.
+    pub directions: f64,
+    /// Both regions' deformation.
+    pub deformation: f64,
+    /// Blend and volume.
+    pub volume: f64,
+    /// The whole self-contact pass of the frame.
+    pub wall: f64,
+}
+
+/// Median of each fold step over `frames` (`(summed fold timings, pass wall time)` in s), in
+/// ms.
+pub fn median_folds(frames: &[(FoldTimings, f64)]) -> FoldMs {
+    let m = |f: fn(&(FoldTimings, f64)) -> f64| median(frames.iter().map(f).collect()) * 1e3;
+    FoldMs {
+        detection: m(|t| t.0.detection),
+        crease: m(|t| t.0.crease),
+        contact: m(|t| t.0.contact),
+        directions: m(|t| t.0.directions),
+        deformation: m(|t| t.0.deformation),
+        volume: m(|t| t.0.volume),
+        wall: m(|t| t.1),
     }
 }
 

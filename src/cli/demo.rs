@@ -3,9 +3,13 @@
 //! glb per method, the LBS frames of the first animation written as OBJ, and a table of timings
 //! and volume changes printed (and saved as `summary.json`). The scenes of separate objects
 //! also go through the contact pass (LBS input, first animation): OBJ frames, a baked glb,
-//! frames in contact, residual penetration before and after, volume error and timings.
+//! frames in contact, residual penetration before and after, volume error and timings. The
+//! single-body scenes (bending capsule with LBS and CoR input, finger, mouth) go through the
+//! self-contact pass the same way, with the inverted faces at the deepest frame.
 
-use super::contact::{self, median, median_stages, ContactFrame, ContactRun, StageMs};
+use super::contact::{
+    self, median, median_folds, median_stages, ContactFrame, ContactRun, FoldMs, StageMs,
+};
 use super::CliResult;
 use contact_skin::frames::{self, Frame, Precomputed};
 use contact_skin::mesh::operators::{mean_edge_length, vertex_normals, NormalWeighting};
@@ -60,14 +64,51 @@ struct PenetrationRow {
     max_depth_h: f64,
 }
 
-/// The contact pass on one scene.
+/// The contact pass on one scene of separate objects.
 #[derive(Serialize)]
 struct ContactRow {
     scene: String,
-    /// `resolved`, or `not yet (self-contact)` for single-body scenes.
+    /// `resolved`, or `no animation`.
     status: String,
     #[serde(flatten)]
     result: Option<ContactResult>,
+}
+
+/// The self-contact pass on one single-body scene and skinning method.
+#[derive(Serialize)]
+struct SelfContactRow {
+    scene: String,
+    /// Skinning method of the input.
+    method: String,
+    animation: String,
+    frames: usize,
+    /// The joint pairs of the pass.
+    pairs: Vec<String>,
+    /// User directions by pair name (from the configuration).
+    directions: Vec<(String, [f64; 3])>,
+    /// Frames where the pass resolved at least one fold.
+    fold_frames: usize,
+    /// `h`: rest mean edge length.
+    h: f64,
+    /// The frame whose skinning input penetrates itself deepest.
+    deepest_frame: usize,
+    penetration_before: PenetrationRow,
+    penetration_after: PenetrationRow,
+    /// Largest relative volume change of the output against the skinned input (signed
+    /// volumes), over the frames.
+    worst_volume_error: f64,
+    /// Faces turned by more than 90° from input to output at the deepest frame.
+    inverted_faces: usize,
+    /// Median time per frame: skinning and both passes (ms).
+    median_frame_ms: f64,
+    /// Median time of the self-contact pass per frame (ms).
+    median_self_ms: f64,
+    /// Median fold step times (ms) over the frames with a fold.
+    fold_ms: FoldMs,
+    glb: String,
+    obj: String,
+    /// The contact configuration used (`<out>/rigs/<scene>.contact.toml` when present).
+    config: Option<String>,
 }
 
 /// What the contact pass did on a scene of separate objects.
@@ -100,20 +141,36 @@ struct ContactResult {
 struct Summary<'a> {
     skinning: &'a [Row],
     contact: &'a [ContactRow],
+    self_contact: &'a [SelfContactRow],
+}
+
+type DemoError = Box<dyn std::error::Error + Send + Sync>;
+
+/// The skinning methods whose output goes through the self-contact pass on a single-body
+/// scene: LBS everywhere, and CoR too on the bending capsule (where LBS loses volume).
+fn self_contact_methods(scene: Scene) -> &'static [Method] {
+    match scene {
+        Scene::BendingCapsule => &[Method::Lbs, Method::Cor],
+        _ => &[Method::Lbs],
+    }
 }
 
 /// Runs `demo`.
 pub fn run(a: &Args) -> CliResult {
     std::fs::create_dir_all(a.out.join("rigs"))?;
+    let steps: usize = Scene::ALL
+        .iter()
+        .map(|&s| 3 + self_contact_methods(s).len())
+        .sum();
     let pb = if a.json {
         ProgressBar::hidden()
     } else {
-        ProgressBar::new((Scene::ALL.len() * 4) as u64)
+        ProgressBar::new(steps as u64)
     };
     if let Ok(style) = ProgressStyle::with_template("{spinner} demo [{bar:30}] {pos}/{len} {msg}") {
         pb.set_style(style.progress_chars("=> "));
     }
-    let (mut rows, mut contact_rows) = (Vec::new(), Vec::new());
+    let (mut rows, mut contact_rows, mut self_rows) = (Vec::new(), Vec::new(), Vec::new());
     for scene in Scene::ALL {
         let bytes = scenes::build_glb(scene, scenes::DEFAULT_RESOLUTION)?;
         let rig_path = a.out.join("rigs").join(format!("{}.glb", scene.name()));
@@ -124,14 +181,23 @@ pub fn run(a: &Args) -> CliResult {
             rows.extend(run_scene(a, scene, &rig, method)?);
             pb.inc(1);
         }
-        pb.set_message(format!("{} (contact)", scene.name()));
-        contact_rows.push(run_contact(a, scene, &rig_path, &rig)?);
-        pb.inc(1);
+        if rig.bodies.len() >= 2 {
+            pb.set_message(format!("{} (contact)", scene.name()));
+            contact_rows.push(run_contact(a, scene, &rig_path, &rig)?);
+            pb.inc(self_contact_methods(scene).len() as u64);
+        } else {
+            for &method in self_contact_methods(scene) {
+                pb.set_message(format!("{} (self-contact, {method})", scene.name()));
+                self_rows.extend(run_self_contact(a, scene, &rig_path, &rig, method)?);
+                pb.inc(1);
+            }
+        }
     }
     pb.finish_and_clear();
     let summary = Summary {
         skinning: &rows,
         contact: &contact_rows,
+        self_contact: &self_rows,
     };
     let json = serde_json::to_string_pretty(&summary)?;
     output::write_atomic(&a.out.join("summary.json"), json.as_bytes())?;
@@ -140,35 +206,35 @@ pub fn run(a: &Args) -> CliResult {
     } else {
         print_table(&rows, &a.out);
         print_contact_table(&contact_rows);
+        print_self_contact_table(&self_rows);
     }
     Ok(())
 }
 
-/// The contact pass on a scene of separate objects (LBS input, first animation); single-body
-/// scenes need self-contact, which is not implemented yet.
+/// The contact pass on a scene of separate objects (LBS input, first animation).
 fn run_contact(
     a: &Args,
     scene: Scene,
     rig_path: &Path,
     rig: &Rig,
-) -> Result<ContactRow, Box<dyn std::error::Error + Send + Sync>> {
+) -> Result<ContactRow, DemoError> {
     let mut row = ContactRow {
         scene: scene.name().to_string(),
-        status: "not yet (self-contact)".into(),
+        status: "no animation".into(),
         result: None,
     };
-    if rig.bodies.len() < 2 || rig.animations.is_empty() {
+    if rig.animations.is_empty() {
         return Ok(row);
     }
     let pre = Precomputed::new(rig, Method::Lbs);
-    let run = ContactRun::new(rig_path, rig, &pre, None, None)?;
+    let run = ContactRun::new(rig_path, rig, &pre, None, None, true)?;
     let times = frames::sample_times(rig, Some(0), a.frames);
     let timed: Vec<(ContactFrame, f64)> = times
         .par_iter()
         .enumerate()
         .map(|(i, &t)| {
             let s = Instant::now();
-            let f = contact::run_frame(rig, &pre, &run.pass, Some(0), i, t)?;
+            let f = contact::run_frame(rig, &pre, &run, Some(0), i, t)?;
             Ok((f, s.elapsed().as_secs_f64() * 1e3))
         })
         .collect::<Result<_, String>>()?;
@@ -208,18 +274,11 @@ fn measure(rig: &Rig, pre: &Precomputed, timed: &[(ContactFrame, f64)]) -> Conta
         .par_iter()
         .map(|p| penetration(p, &tris, h))
         .collect();
-    let deepest = (0..before.len())
-        .max_by(|&x, &y| {
-            before[x]
-                .max_depth_h
-                .total_cmp(&before[y].max_depth_h)
-                .then(y.cmp(&x))
-        })
-        .unwrap_or(0);
+    let deepest = deepest_frame(&before);
     let worst_volume_error = timed
         .iter()
         .zip(&inputs)
-        .map(|((f, _), input)| volume_error(input, &f.output, &tris))
+        .map(|((f, _), input)| volume_error(input, f, &tris))
         .fold(0.0, f64::max);
     ContactResult {
         animation: String::new(),
@@ -233,7 +292,7 @@ fn measure(rig: &Rig, pre: &Precomputed, timed: &[(ContactFrame, f64)]) -> Conta
         penetration_before: before.get(deepest).copied().unwrap_or_default(),
         penetration_after: timed
             .get(deepest)
-            .map(|(f, _)| penetration(&f.output.positions, &tris, h))
+            .map(|(f, _)| penetration(&f.positions, &tris, h))
             .unwrap_or_default(),
         worst_volume_error,
         median_frame_ms: median(timed.iter().map(|(_, ms)| *ms).collect()),
@@ -269,13 +328,9 @@ fn penetration(positions: &[Vec<Point3<f64>>], tris: &[&[[u32; 3]]], h: f64) -> 
 }
 
 /// Largest relative volume change of a deformed body in one frame.
-fn volume_error(
-    input: &[Vec<Point3<f64>>],
-    out: &contact_skin::pass::PassOutput,
-    tris: &[&[[u32; 3]]],
-) -> f64 {
+fn volume_error(input: &[Vec<Point3<f64>>], out: &ContactFrame, tris: &[&[[u32; 3]]]) -> f64 {
     (0..input.len())
-        .filter(|&b| out.diagnostics[b].stats.is_some())
+        .filter(|&b| out.deformed(b))
         .map(|b| {
             metrics::volume_error(
                 signed_volume(&input[b], tris[b]),
@@ -283,6 +338,147 @@ fn volume_error(
             )
         })
         .fold(0.0, f64::max)
+}
+
+/// The self-contact pass on a single-body scene (first animation, `method` input): OBJ frames
+/// and a baked glb of the result, frames with a fold, penetration before and after at the
+/// deepest input frame, volume error, inverted faces and timings. `None` without animation.
+fn run_self_contact(
+    a: &Args,
+    scene: Scene,
+    rig_path: &Path,
+    rig: &Rig,
+    method: Method,
+) -> Result<Option<SelfContactRow>, DemoError> {
+    if rig.animations.is_empty() {
+        return Ok(None);
+    }
+    let pre = Precomputed::new(rig, method);
+    let run = ContactRun::new(rig_path, rig, &pre, None, None, true)?;
+    let times = frames::sample_times(rig, Some(0), a.frames);
+    let timed: Vec<(ContactFrame, f64)> = times
+        .par_iter()
+        .enumerate()
+        .map(|(i, &t)| {
+            let s = Instant::now();
+            let f = contact::run_frame(rig, &pre, &run, Some(0), i, t)?;
+            Ok((f, s.elapsed().as_secs_f64() * 1e3))
+        })
+        .collect::<Result<_, String>>()?;
+    let dir = a.out.join(scene.name());
+    let anim = rig.animations[0].name.clone().unwrap_or_else(|| "0".into());
+    let suffix = if method == Method::Lbs {
+        String::new()
+    } else {
+        format!(".{method}")
+    };
+    let glb_path = dir.join(format!("{anim}.contact{suffix}.glb"));
+    let obj_dir = dir.join(format!("contact_obj{}", suffix.replace('.', "_")));
+    let posed: Vec<Frame> = timed.iter().map(|(f, _)| f.frame.clone()).collect();
+    let title = format!("{} {anim} {method} + self-contact", scene.name());
+    output::write_atomic(&glb_path, &glb::bake(rig, &posed, &title)?)?;
+    write_obj(
+        &obj_dir,
+        rig,
+        &posed,
+        &format!("demo, {method} + self-contact"),
+    )?;
+    let rest = contact::rest_welded(rig, &pre);
+    let tris: Vec<&[[u32; 3]]> = pre.welded.iter().map(|w| w.triangles.as_slice()).collect();
+    let h = rest
+        .iter()
+        .zip(&tris)
+        .map(|(p, t)| mean_edge_length(p, t))
+        .sum::<f64>()
+        / rest.len().max(1) as f64;
+    let inputs: Vec<Vec<Vec<Point3<f64>>>> = timed
+        .iter()
+        .map(|(f, _)| contact::welded(&f.input, &pre))
+        .collect();
+    let before: Vec<PenetrationRow> = inputs
+        .par_iter()
+        .map(|p| self_penetration(p, &tris, h))
+        .collect();
+    let deepest = deepest_frame(&before);
+    let worst_volume_error = timed
+        .iter()
+        .zip(&inputs)
+        .map(|((f, _), input)| volume_error(input, f, &tris))
+        .fold(0.0, f64::max);
+    let (after, inverted) = match (timed.get(deepest), inputs.get(deepest)) {
+        (Some((f, _)), Some(input)) => (
+            self_penetration(&f.positions, &tris, h),
+            tris.iter()
+                .enumerate()
+                .map(|(b, t)| metrics::inverted_faces(t, &input[b], &f.positions[b]).inverted)
+                .sum(),
+        ),
+        _ => (PenetrationRow::default(), 0),
+    };
+    let with_fold: Vec<_> = timed
+        .iter()
+        .filter_map(|(f, _)| f.self_output.as_ref().map(|s| (s, f.self_wall)))
+        .filter(|(s, _)| !s.folds.is_empty())
+        .map(|(s, w)| (s.timings, w))
+        .collect();
+    let settings = run.self_contact.as_ref().map(|s| &s.settings);
+    Ok(Some(SelfContactRow {
+        scene: scene.name().to_string(),
+        method: method.to_string(),
+        animation: anim,
+        frames: timed.len(),
+        pairs: run.self_contact.as_ref().map_or(Vec::new(), |s| {
+            s.pairs.iter().map(|p| p.1.clone()).collect()
+        }),
+        directions: settings.map_or(Vec::new(), |s| {
+            s.directions
+                .iter()
+                .map(|(n, d)| (n.clone(), [d.x, d.y, d.z]))
+                .collect()
+        }),
+        fold_frames: timed.iter().filter(|(f, _)| f.fold_count() > 0).count(),
+        h,
+        deepest_frame: deepest,
+        penetration_before: before.get(deepest).copied().unwrap_or_default(),
+        penetration_after: after,
+        worst_volume_error,
+        inverted_faces: inverted,
+        median_frame_ms: median(timed.iter().map(|(_, ms)| *ms).collect()),
+        median_self_ms: median(timed.iter().map(|(f, _)| f.self_wall * 1e3).collect()),
+        fold_ms: median_folds(&with_fold),
+        glb: glb_path.display().to_string(),
+        obj: obj_dir.display().to_string(),
+        config: run.config.map(|p| p.display().to_string()),
+    }))
+}
+
+/// The frame whose penetration is deepest (the first of equals).
+fn deepest_frame(rows: &[PenetrationRow]) -> usize {
+    (0..rows.len())
+        .max_by(|&x, &y| {
+            rows[x]
+                .max_depth_h
+                .total_cmp(&rows[y].max_depth_h)
+                .then(y.cmp(&x))
+        })
+        .unwrap_or(0)
+}
+
+/// Residual penetration of every body on its own (self-penetration, `MEASURING.md`):
+/// penetrating vertices summed, largest depth / `h`.
+fn self_penetration(
+    positions: &[Vec<Point3<f64>>],
+    tris: &[&[[u32; 3]]],
+    h: f64,
+) -> PenetrationRow {
+    let mut row = PenetrationRow::default();
+    for (p, t) in positions.iter().zip(tris) {
+        let n = vertex_normals(p, t, NormalWeighting::Area);
+        let r = metrics::residual_penetration(p, t, &n, h);
+        row.vertices += r.vertices;
+        row.max_depth_h = row.max_depth_h.max(r.max_depth / h);
+    }
+    row
 }
 
 fn run_scene(
@@ -428,5 +624,49 @@ fn print_contact_table(rows: &[ContactRow]) {
         "(contact: LBS input, first animation; penetration at the frame whose input is deepest, \
          in penetrating vertices and depth / h; OBJ frames in <scene>/contact_obj, baked \
          <scene>/<anim>.contact.glb)"
+    );
+}
+
+fn print_self_contact_table(rows: &[SelfContactRow]) {
+    if rows.is_empty() {
+        return;
+    }
+    println!();
+    println!(
+        "{:<16} {:<6} {:<6} {:>11} {:>28} {:>10} {:>9} {:>9} {:>9}",
+        "scene",
+        "anim",
+        "skin",
+        "fold/frames",
+        "self-penetration before -> after",
+        "max |dV|/V",
+        "inverted",
+        "ms/frame",
+        "self ms"
+    );
+    for r in rows {
+        let (b, f) = (r.penetration_before, r.penetration_after);
+        println!(
+            "{:<16} {:<6} {:<6} {:>4}/{:<6} {:>32} {:>10.1e} {:>9} {:>9.2} {:>9.2}",
+            r.scene,
+            r.animation,
+            r.method,
+            r.fold_frames,
+            r.frames,
+            format!(
+                "{} v {:.2}h -> {} v {:.2}h",
+                b.vertices, b.max_depth_h, f.vertices, f.max_depth_h
+            ),
+            r.worst_volume_error,
+            r.inverted_faces,
+            r.median_frame_ms,
+            r.median_self_ms
+        );
+    }
+    println!(
+        "(self-contact: first animation; penetration of the body into itself at the frame whose \
+         input is deepest; max |dV|/V output against skinned input over the frames; inverted \
+         faces at that frame; OBJ frames in <scene>/contact_obj (CoR: contact_obj_cor), baked \
+         <scene>/<anim>.contact.glb (CoR: .contact.cor.glb))"
     );
 }

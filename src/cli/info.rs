@@ -5,6 +5,7 @@ use contact_skin::config::{self, ContactConfig};
 use contact_skin::mesh::{TopologyReport, WeldedMesh};
 use contact_skin::pass::DEFAULT_EXTENT_FACTOR;
 use contact_skin::rig::{self, Rig};
+use contact_skin::selfcontact::{derive_pairs, PairRegions};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
@@ -61,6 +62,45 @@ struct ContactInfo {
     pairs: Vec<PairInfo>,
 }
 
+/// One joint pair derived from the skin weights (a possible fold).
+#[derive(Serialize)]
+struct SelfPairInfo {
+    body: usize,
+    body_name: String,
+    /// `body/parent-child`: the name `[[self_contact.pair]]` uses.
+    name: String,
+    parent: String,
+    child: String,
+    /// Welded vertices of the shared region `R`.
+    shared: usize,
+    /// How the regions were derived (thresholds, counts, the partition of unity).
+    reason: String,
+    /// The user direction of `[[self_contact.pair]]`, normalized (`null`: from the skeleton).
+    direction: Option<[f64; 3]>,
+}
+
+/// The self-contact pass as it would run: its parameters, resolved, and the joint pairs.
+#[derive(Serialize)]
+struct SelfContactInfo {
+    /// `[self_contact] enabled` (default true).
+    enabled: bool,
+    /// The configuration has a `[self_contact]` table (else: the pass defaults).
+    configured: bool,
+    threshold: f64,
+    grow_rings: usize,
+    /// `k̄` of the parent side.
+    stiffness: f64,
+    tau: f64,
+    /// `φ̄` in scene units.
+    extent: f64,
+    gamma: f64,
+    omega: f64,
+    /// Joint pairs per body, in the order the pass resolves them.
+    pairs: Vec<SelfPairInfo>,
+    /// Why the pairs could not be derived (`null` when they could).
+    error: Option<String>,
+}
+
 #[derive(Serialize)]
 struct BodyInfo {
     name: String,
@@ -95,6 +135,7 @@ struct RigInfo {
     animations: Vec<AnimationInfo>,
     warnings: Vec<String>,
     contact: Option<ContactInfo>,
+    self_contact: Option<SelfContactInfo>,
 }
 
 fn describe(rig: &Rig, welded: &[WeldedMesh]) -> RigInfo {
@@ -144,6 +185,113 @@ fn describe(rig: &Rig, welded: &[WeldedMesh]) -> RigInfo {
         animations,
         warnings: rig.warnings.clone(),
         contact: None,
+        self_contact: None,
+    }
+}
+
+/// The self-contact pass of the rig under its configuration (or the defaults): derived joint
+/// pairs with their reasons and the user directions that apply. A configuration error
+/// (numbers, unknown pair) is an error; pairs that cannot be derived are reported in `error`.
+fn describe_self_contact(
+    path: &Path,
+    explicit: Option<&Path>,
+    rig: &Rig,
+    welded: &[WeldedMesh],
+) -> Result<SelfContactInfo, config::ConfigError> {
+    let cfg = ContactConfig::for_rig(path, explicit)?.unwrap_or_default();
+    let (regions, error): (Vec<PairRegions>, Option<String>) =
+        match derive_pairs(rig, welded, &cfg.self_contact_regions()) {
+            Ok(r) => (r, None),
+            Err(e) => (Vec::new(), Some(e.to_string())),
+        };
+    let derived: Vec<(usize, String)> = regions
+        .iter()
+        .map(|r| (r.pair.body, r.pair.name.clone()))
+        .collect();
+    let settings = if error.is_some() {
+        // Without the pairs the names cannot be checked: resolve the numbers only.
+        let mut numbers_only = cfg.clone();
+        if let Some(sc) = numbers_only.self_contact.as_mut() {
+            sc.pairs.clear();
+        }
+        numbers_only.resolve_self_contact_with(rig, &derived)?
+    } else {
+        cfg.resolve_self_contact_with(rig, &derived)?
+    };
+    let node = |n: usize| {
+        rig.nodes
+            .get(n)
+            .and_then(|x| x.name.clone())
+            .unwrap_or_else(|| format!("node{n}"))
+    };
+    let pairs = regions
+        .iter()
+        .map(|r| {
+            let p = &r.pair;
+            SelfPairInfo {
+                body: p.body,
+                body_name: rig.bodies[p.body].name.clone(),
+                name: p.name.clone(),
+                parent: node(p.parent_joint),
+                child: node(p.child_joint),
+                shared: r.shared.len(),
+                reason: r.reason.clone(),
+                direction: settings
+                    .directions
+                    .iter()
+                    .find(|(n, _)| *n == p.name)
+                    .map(|(_, d)| [d.x, d.y, d.z]),
+            }
+        })
+        .collect();
+    let f = &settings.params;
+    Ok(SelfContactInfo {
+        enabled: settings.enabled,
+        configured: cfg.self_contact.is_some(),
+        threshold: settings.regions.threshold,
+        grow_rings: settings.regions.grow_rings,
+        stiffness: f.stiffness_1,
+        tau: f.tau,
+        extent: f.deform.extent,
+        gamma: f.deform.gamma,
+        omega: f.deform.omega,
+        pairs,
+        error,
+    })
+}
+
+fn print_self_contact(s: &SelfContactInfo) {
+    println!(
+        "  self-contact ({}{}): threshold {}, grow rings {}, stiffness {}, tau {}, extent {:.6}, gamma {}, omega {}",
+        if s.enabled { "on" } else { "off" },
+        if s.configured {
+            ", [self_contact] of the configuration"
+        } else {
+            ", defaults"
+        },
+        s.threshold,
+        s.grow_rings,
+        s.stiffness,
+        s.tau,
+        s.extent,
+        s.gamma,
+        s.omega
+    );
+    if let Some(e) = &s.error {
+        println!("    joint pairs cannot be derived: {e}");
+    } else if s.pairs.is_empty() {
+        println!("    no joint pair (no body is deformed by a parent and a child joint)");
+    }
+    for p in &s.pairs {
+        let direction = match p.direction {
+            Some(d) => format!("direction {d:?} (configured)"),
+            None => "direction from the skeleton".into(),
+        };
+        println!(
+            "    pair '{}' (body {} '{}', joints '{}' -> '{}'): shared region {} vertices, {direction}",
+            p.name, p.body, p.body_name, p.parent, p.child, p.shared
+        );
+        println!("      {}", p.reason);
     }
 }
 
@@ -256,6 +404,12 @@ pub fn run(a: &Args) -> CliResult {
         .collect();
     let mut info = describe(&rig, &welded);
     info.contact = describe_contact(&a.rig, a.config.as_deref(), &rig, &welded)?;
+    info.self_contact = Some(describe_self_contact(
+        &a.rig,
+        a.config.as_deref(),
+        &rig,
+        &welded,
+    )?);
     if a.json {
         println!("{}", serde_json::to_string_pretty(&info)?);
         return Ok(());
@@ -299,6 +453,9 @@ pub fn run(a: &Args) -> CliResult {
     match &info.contact {
         Some(c) => print_contact(c),
         None => println!("  no contact configuration (the contact pass uses its defaults)"),
+    }
+    if let Some(s) = &info.self_contact {
+        print_self_contact(s);
     }
     Ok(())
 }

@@ -1,12 +1,16 @@
-//! `contact-skin pose`: evaluates an animation, runs the contact pass on every frame (unless
-//! `--no-contact`) and writes the frames (and, with `--diagnostics`, the pass's fields).
+//! `contact-skin pose`: evaluates an animation, runs the contact passes on every frame (the
+//! object pass, then the self-contact pass; unless `--no-contact`) and writes the frames (and,
+//! with `--diagnostics`, the passes' fields).
 
-use super::contact::{self, median, median_stages, BoxError, ContactRun, StageMs};
+use super::contact::{
+    self, median, median_folds, median_stages, BoxError, ContactRun, FoldMs, StageMs,
+};
 use super::CliResult;
 use contact_skin::frames::{self, Frame, Precomputed};
 use contact_skin::output::{self, glb, obj};
 use contact_skin::pass::StageTimings;
 use contact_skin::rig::{self, Rig};
+use contact_skin::selfcontact::fold::FoldTimings;
 use contact_skin::skinning::Method;
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
@@ -61,9 +65,13 @@ pub struct Args {
     /// Skinning method feeding the contact pass.
     #[arg(long, value_enum, default_value_t = Skinning::Lbs)]
     skinning: Skinning,
-    /// Write the plain skinning result, without the contact pass.
+    /// Write the plain skinning result, without the contact passes (objects and self-contact).
     #[arg(long, conflicts_with_all = ["config", "passes", "diagnostics"])]
     no_contact: bool,
+    /// Leave out the self-contact pass (joints folding into themselves); the contact pass
+    /// between objects still runs.
+    #[arg(long)]
+    no_self_contact: bool,
     /// Contact configuration (TOML). Default: `<rig stem>.contact.toml` next to the rig if it
     /// exists, else the default parameters.
     #[arg(long, value_name = "PATH")]
@@ -106,6 +114,21 @@ struct Summary {
     median_frame_ms: f64,
     /// Median per-stage time of the contact pass (ms), over all frames.
     stage_ms: Option<StageMs>,
+    /// Whether the self-contact pass ran.
+    self_contact: bool,
+    /// Joint pairs of the self-contact pass (`body/parent-child`), in the order they run.
+    self_contact_pairs: Vec<String>,
+    /// Frames where the self-contact pass resolved at least one fold.
+    fold_frames: usize,
+    /// The pairs found folding into contact in some frame, in the pass's order.
+    folds: Vec<String>,
+    /// Joint pairs skipped for want of a direction (full 180° fold), summed over the frames.
+    folds_without_direction: usize,
+    /// Median time of the self-contact pass per frame (ms), over all frames.
+    self_contact_ms: Option<f64>,
+    /// Median fold step times (ms) over the frames with a fold (each step summed over the
+    /// frame's folds; `wall`: the whole self-contact pass).
+    fold_ms: Option<FoldMs>,
 }
 
 /// Resolves `--animation` against the rig.
@@ -168,6 +191,11 @@ struct FrameStats {
     contacts: usize,
     timings: Option<StageTimings>,
     diagnostics: bool,
+    /// Names of the folds resolved.
+    folds: Vec<String>,
+    /// Summed fold timings and the self-contact pass's wall time (s), when it ran.
+    fold_timings: Option<(FoldTimings, f64)>,
+    folds_without_direction: usize,
 }
 
 /// Runs `pose`.
@@ -195,6 +223,7 @@ pub fn run(a: &Args) -> CliResult {
             &pre,
             a.config.as_deref(),
             passes,
+            !a.no_self_contact,
         )?)
     };
     let precompute_ms = t_pre.elapsed().as_secs_f64() * 1e3;
@@ -228,11 +257,16 @@ fn header(
     let contact = match contact {
         None => "contact off".to_string(),
         Some(c) => format!(
-            "contact on (passes {}, config {})",
+            "contact on (passes {}, config {}), self-contact {}",
             c.passes,
             c.config
                 .as_ref()
-                .map_or("none".into(), |p| p.display().to_string())
+                .map_or("none".into(), |p| p.display().to_string()),
+            if c.self_contact.is_some() {
+                "on"
+            } else {
+                "off"
+            }
         ),
     };
     format!(
@@ -254,6 +288,24 @@ fn summarize(
 ) -> Summary {
     let (rig, animation) = (job.rig, job.animation);
     let timings: Vec<StageTimings> = stats.iter().filter_map(|s| s.timings).collect();
+    let self_run = job.contact.and_then(|c| c.self_contact.as_ref());
+    let pairs: Vec<String> = self_run.map_or(Vec::new(), |s| {
+        s.pairs.iter().map(|(_, n)| n.clone()).collect()
+    });
+    let folds: Vec<String> = pairs
+        .iter()
+        .filter(|p| stats.iter().any(|s| s.folds.contains(p)))
+        .cloned()
+        .collect();
+    let with_fold: Vec<(FoldTimings, f64)> = stats
+        .iter()
+        .filter(|s| !s.folds.is_empty())
+        .filter_map(|s| s.fold_timings)
+        .collect();
+    let self_walls: Vec<f64> = stats
+        .iter()
+        .filter_map(|s| s.fold_timings.map(|t| t.1 * 1e3))
+        .collect();
     Summary {
         rig: job.args.rig.display().to_string(),
         animation: animation.map(|i| {
@@ -278,6 +330,13 @@ fn summarize(
         total_ms: start.elapsed().as_secs_f64() * 1e3,
         median_frame_ms: median(stats.iter().map(|s| s.ms).collect()),
         stage_ms: job.contact.map(|_| median_stages(&timings)),
+        self_contact: self_run.is_some(),
+        self_contact_pairs: pairs,
+        fold_frames: stats.iter().filter(|s| !s.folds.is_empty()).count(),
+        folds,
+        folds_without_direction: stats.iter().map(|s| s.folds_without_direction).sum(),
+        self_contact_ms: self_run.map(|_| median(self_walls)),
+        fold_ms: self_run.map(|_| median_folds(&with_fold)),
     }
 }
 
@@ -315,6 +374,32 @@ fn print_summary(s: &Summary, a: &Args) -> CliResult {
             t.wall
         );
     }
+    if let (Some(wall), Some(t)) = (s.self_contact_ms, &s.fold_ms) {
+        let folds = if s.folds.is_empty() {
+            "none".to_string()
+        } else {
+            s.folds.join(", ")
+        };
+        println!(
+            "self-contact ({} joint pair(s)): {} of {} frames with a fold ({folds}); median ms per frame {wall:.3}; with a fold: detection {:.3}, crease {:.3}, contact {:.3}, directions {:.3}, deformation {:.3}, volume {:.3}, wall {:.3}",
+            s.self_contact_pairs.len(),
+            s.fold_frames,
+            s.frames,
+            t.detection,
+            t.crease,
+            t.contact,
+            t.directions,
+            t.deformation,
+            t.volume,
+            t.wall
+        );
+        if s.folds_without_direction > 0 {
+            println!(
+                "self-contact: {} fold(s) skipped without a direction (bones folded 180°)",
+                s.folds_without_direction
+            );
+        }
+    }
     Ok(())
 }
 
@@ -329,10 +414,13 @@ fn compute(job: &Job, i: usize, t: f64) -> Result<(Frame, FrameStats), String> {
             contacts: 0,
             timings: None,
             diagnostics: false,
+            folds: Vec::new(),
+            fold_timings: None,
+            folds_without_direction: 0,
         };
         return Ok((frame, stats));
     };
-    let cf = contact::run_frame(job.rig, job.pre, &c.pass, job.animation, i, t)?;
+    let cf = contact::run_frame(job.rig, job.pre, c, job.animation, i, t)?;
     let ms = t0.elapsed().as_secs_f64() * 1e3;
     if job.args.diagnostics {
         let path = job.args.out.join(contact::diagnostics_file_name(i));
@@ -340,11 +428,17 @@ fn compute(job: &Job, i: usize, t: f64) -> Result<(Frame, FrameStats), String> {
         let bytes = serde_json::to_vec(&d).map_err(|e| format!("{}: {e}", path.display()))?;
         output::write_atomic(&path, &bytes).map_err(|e| format!("{}: {e}", path.display()))?;
     }
+    let so = cf.self_output.as_ref();
     let stats = FrameStats {
         ms,
         contacts: cf.output.contacts.len(),
         timings: Some(cf.output.timings),
         diagnostics: job.args.diagnostics,
+        folds: so.map_or(Vec::new(), |s| {
+            s.folds.iter().map(|f| f.name.clone()).collect()
+        }),
+        fold_timings: so.map(|s| (s.timings, cf.self_wall)),
+        folds_without_direction: so.map_or(0, |s| s.no_direction),
     };
     Ok((cf.frame, stats))
 }
