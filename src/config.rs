@@ -19,6 +19,7 @@
 //! direction = [0.0, 1.0, 0.0]     # or direction_keys = [[t, x, y, z], ...]
 //! [self_contact]                  # optional: joints folding into themselves
 //! enabled = true
+//! passes = 2                      # sweeps over the folds per frame
 //! threshold = 0.05                # RegionOptions::threshold
 //! grow_rings = 2
 //! stiffness = 0.5                 # k̄ of the parent side, in [0, 1]
@@ -42,6 +43,7 @@ use crate::mesh::{bbox_diagonal, WeldedMesh};
 use crate::pass::{DirectionTrack, ObjectParams, PairOverride, DEFAULT_PASSES};
 use crate::rig::{Confinement, Rig};
 use crate::selfcontact::fold::FoldParams;
+use crate::selfcontact::pass::DEFAULT_FOLD_PASSES;
 use crate::selfcontact::{derive_pairs, RegionOptions, SelfContactError};
 use nalgebra::Vector3;
 use serde::de::{self, Deserializer, Visitor};
@@ -178,7 +180,7 @@ pub enum ConfigError {
         field: String,
         /// The underlying error.
         #[source]
-        source: SelfContactError,
+        source: Box<SelfContactError>,
     },
     /// `attribute:NAME` naming no custom attribute of the body.
     #[error(
@@ -392,6 +394,9 @@ pub struct PairSpec {
 pub struct SelfContactSpec {
     /// Run the self-contact pass (default `true`).
     pub enabled: Option<bool>,
+    /// Sweeps over the folds per frame
+    /// ([`crate::selfcontact::pass::SelfContactPass::with_passes`]).
+    pub passes: Option<usize>,
     /// [`RegionOptions::threshold`]: weight above which a vertex belongs to a working region.
     pub threshold: Option<f64>,
     /// [`RegionOptions::grow_rings`].
@@ -435,6 +440,8 @@ pub struct SelfContactSettings {
     pub params: FoldParams,
     /// User directions by pair name (normalized).
     pub directions: Vec<(String, Vector3<f64>)>,
+    /// Sweeps over the folds per frame.
+    pub passes: usize,
 }
 
 /// A rig's contact configuration (see the module documentation).
@@ -618,6 +625,14 @@ impl ContactConfig {
 
     fn check_self_contact(&self, sc: &SelfContactSpec) -> Result<(), ConfigError> {
         let at = "self_contact";
+        if let Some(p) = sc.passes {
+            if !(1..=MAX_PASSES).contains(&p) {
+                return Err(self.invalid(
+                    format!("{at}.passes"),
+                    format!("{p} is not in 1..={MAX_PASSES}"),
+                ));
+            }
+        }
         if let Some(t) = sc.threshold {
             if !(t.is_finite() && (0.0..1.0).contains(&t)) {
                 return Err(self.invalid(
@@ -991,7 +1006,7 @@ impl ContactConfig {
                 .map_err(|source| ConfigError::SelfContact {
                     file: self.file.clone(),
                     field: field.into(),
-                    source,
+                    source: Box::new(source),
                 })?
                 .into_iter()
                 .map(|r| (r.pair.body, r.pair.name))
@@ -1068,6 +1083,7 @@ impl ContactConfig {
             regions: self.self_contact_regions(),
             params,
             directions,
+            passes: spec.passes.unwrap_or(DEFAULT_FOLD_PASSES),
         })
     }
 }

@@ -594,3 +594,305 @@ fn non_finite_attribute_values_are_refused() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+// ---------------------------------------------------------------------------------------------
+// [self_contact]
+
+use contact_skin::config::{SelfContactSettings, SelfPairSpec};
+use contact_skin::selfcontact::fold::FoldParams;
+use contact_skin::selfcontact::pass::DEFAULT_FOLD_PASSES;
+use contact_skin::selfcontact::RegionOptions;
+
+/// A fresh temporary folder holding a copy of `rigs/mouth.glb` (body `lips`, joints `head`
+/// and `jaw`: one derived pair, `lips/head-jaw`).
+fn mouth_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("cs-config-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).expect("temp dir");
+    let rig = Path::new(env!("CARGO_MANIFEST_DIR")).join("rigs/mouth.glb");
+    std::fs::copy(rig, d.join("mouth.glb")).expect("copy rig");
+    d
+}
+
+fn load_mouth(dir: &Path) -> (Rig, Vec<WeldedMesh>) {
+    let rig = rig::load(&dir.join("mouth.glb")).expect("rig loads");
+    let welded = rig
+        .bodies
+        .iter()
+        .map(|b| WeldedMesh::weld(&b.positions, &b.triangles))
+        .collect();
+    (rig, welded)
+}
+
+fn resolve_self(dir: &Path, text: &str) -> Result<SelfContactSettings, ConfigError> {
+    let cfg = write_config(dir, text)?;
+    let (rig, welded) = load_mouth(dir);
+    cfg.resolve_self_contact(&rig, &welded)
+}
+
+const SELF_FULL: &str = r#"
+[defaults]
+stiffness = 2.0                 # the object pass's, untouched by [self_contact]
+
+[self_contact]
+enabled = true
+passes = 1
+threshold = 0.1
+grow_rings = 3
+stiffness = 0.7                 # k̄ of the parent side
+tau = 0.2
+extent_factor = 0.25
+gamma = 0.5
+omega = 1                       # an integer
+
+[[self_contact.pair]]
+name = "lips/head-jaw"
+direction = [0.0, -2.0, 0]      # normalized on resolution
+"#;
+
+#[test]
+fn the_self_contact_table_parses_and_resolves() {
+    let dir = mouth_dir("self-full");
+    let cfg = write_config(&dir, SELF_FULL).expect("parses");
+    let spec = cfg.self_contact.as_ref().expect("table");
+    assert_eq!(spec.enabled, Some(true));
+    assert_eq!((spec.threshold, spec.grow_rings), (Some(0.1), Some(3)));
+    assert_eq!(spec.omega, Some(1.0));
+    assert_eq!(
+        spec.pairs,
+        vec![SelfPairSpec {
+            name: "lips/head-jaw".into(),
+            direction: [0.0, -2.0, 0.0],
+        }]
+    );
+    assert!(cfg.self_contact_enabled());
+    assert!(cfg.self_contact_needs_pairs());
+    let (rig, welded) = load_mouth(&dir);
+    let settings = cfg.resolve_self_contact(&rig, &welded).expect("resolves");
+    let diagonal = contact_skin::config::rest_diagonals(&rig)[0];
+    let mut params = FoldParams {
+        stiffness_1: 0.7,
+        tau: 0.2,
+        ..Default::default()
+    };
+    params.deform.extent = 0.25 * diagonal;
+    params.deform.gamma = 0.5;
+    params.deform.omega = 1.0;
+    let expected = SelfContactSettings {
+        enabled: true,
+        regions: RegionOptions {
+            threshold: 0.1,
+            grow_rings: 3,
+        },
+        params,
+        directions: vec![("lips/head-jaw".into(), -Vector3::y())],
+        passes: 1,
+    };
+    assert_eq!(settings, expected);
+    // The same from the pairs given by the caller (as the pass lists them).
+    let given = cfg
+        .resolve_self_contact_with(&rig, &[(0, "lips/head-jaw".to_string())])
+        .expect("resolves");
+    assert_eq!(given, expected);
+    // The object pass's parameters are not affected by the table.
+    let (objects, _, _) = cfg.resolve(&rig, &welded).expect("object pass resolves");
+    assert_eq!(objects[0].stiffness, 2.0);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn without_a_self_contact_table_the_pass_defaults_apply() {
+    let dir = mouth_dir("self-defaults");
+    let defaults = SelfContactSettings {
+        enabled: true,
+        regions: RegionOptions::default(),
+        params: FoldParams::default(),
+        directions: Vec::new(),
+        passes: DEFAULT_FOLD_PASSES,
+    };
+    for text in ["# nothing\n", "[self_contact]\n"] {
+        let cfg = write_config(&dir, text).expect("parses");
+        assert!(!cfg.self_contact_needs_pairs());
+        assert_eq!(resolve_self(&dir, text).expect("resolves"), defaults);
+    }
+    let (rig, _) = load_mouth(&dir);
+    assert_eq!(
+        ContactConfig::default()
+            .resolve_self_contact_with(&rig, &[])
+            .expect("resolves"),
+        defaults
+    );
+    let s = resolve_self(&dir, "[self_contact]\nextent = 0.2\n").expect("resolves");
+    assert_eq!(s.params.deform.extent, 0.2);
+    assert_eq!(s.params.stiffness_1, FoldParams::default().stiffness_1);
+    let cfg = write_config(&dir, "[self_contact]\nenabled = false\n").expect("parses");
+    assert!(!cfg.self_contact_enabled());
+    assert!(
+        !resolve_self(&dir, "[self_contact]\nenabled = false\n")
+            .expect("resolves")
+            .enabled
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_self_contact_values_are_typed_errors_naming_the_field() {
+    let dir = mouth_dir("self-numbers");
+    let pair = "[[self_contact.pair]]\nname = \"lips/head-jaw\"\n";
+    let invalid = [
+        (
+            "[self_contact]\nthreshold = -0.1\n",
+            "self_contact.threshold".to_string(),
+        ),
+        (
+            "[self_contact]\nthreshold = 1.0\n",
+            "self_contact.threshold".into(),
+        ),
+        (
+            "[self_contact]\nthreshold = nan\n",
+            "self_contact.threshold".into(),
+        ),
+        (
+            "[self_contact]\ngrow_rings = 65\n",
+            "self_contact.grow_rings".into(),
+        ),
+        ("[self_contact]\npasses = 0\n", "self_contact.passes".into()),
+        (
+            "[self_contact]\npasses = 17\n",
+            "self_contact.passes".into(),
+        ),
+        (
+            "[self_contact]\nstiffness = 1.5\n",
+            "self_contact.stiffness".into(),
+        ),
+        (
+            "[self_contact]\nstiffness = -0.1\n",
+            "self_contact.stiffness".into(),
+        ),
+        (
+            "[self_contact]\nstiffness = nan\n",
+            "self_contact.stiffness".into(),
+        ),
+        ("[self_contact]\ntau = inf\n", "self_contact.tau".into()),
+        ("[self_contact]\nextent = 0\n", "self_contact.extent".into()),
+        (
+            "[self_contact]\nextent_factor = -1\n",
+            "self_contact.extent_factor".into(),
+        ),
+        (
+            "[self_contact]\nextent = 0.2\nextent_factor = 0.1\n",
+            "self_contact.extent_factor".into(),
+        ),
+        ("[self_contact]\ngamma = nan\n", "self_contact.gamma".into()),
+        ("[self_contact]\nomega = -1\n", "self_contact.omega".into()),
+    ];
+    let with_pair = [
+        ("direction = [0, 0, 0]\n", "self_contact.pair[0].direction"),
+        (
+            "direction = [0, nan, 1]\n",
+            "self_contact.pair[0].direction",
+        ),
+        (
+            "direction = [inf, 0, 1]\n",
+            "self_contact.pair[0].direction",
+        ),
+    ];
+    let mut cases: Vec<(String, String)> = invalid
+        .iter()
+        .map(|(t, f)| (t.to_string(), f.clone()))
+        .collect();
+    for (d, f) in with_pair {
+        cases.push((format!("{pair}{d}"), f.into()));
+    }
+    cases.push((
+        "[[self_contact.pair]]\nname = \" \"\ndirection = [0, 1, 0]\n".into(),
+        "self_contact.pair[0].name".into(),
+    ));
+    for (text, field) in &cases {
+        let e = write_config(&dir, text).expect_err(text);
+        assert!(matches!(e, ConfigError::Invalid { .. }), "{text}: {e:?}");
+        check_names(&e, &dir, field);
+    }
+    // Wrong types, unknown or missing fields are parse errors naming the field.
+    let parse = [
+        ("[self_contact]\nbogus = 1\n", "self_contact.bogus"),
+        (
+            "[self_contact]\ngrow_rings = -1\n",
+            "self_contact.grow_rings",
+        ),
+        ("[self_contact]\nenabled = 1\n", "self_contact.enabled"),
+        (
+            "[self_contact]\nthreshold = \"low\"\n",
+            "self_contact.threshold",
+        ),
+        (
+            "[[self_contact.pair]]\nname = \"lips/head-jaw\"\ndirection = [0, 1]\n",
+            "self_contact.pair[0].direction",
+        ),
+        (
+            "[[self_contact.pair]]\nname = \"lips/head-jaw\"\ndirection = [0, 1, 0]\ntau = 1\n",
+            "self_contact.pair[0].tau",
+        ),
+    ];
+    for (text, field) in parse {
+        let e = write_config(&dir, text).expect_err(text);
+        assert!(matches!(e, ConfigError::Parse { .. }), "{text}: {e:?}");
+        check_names(&e, &dir, field);
+    }
+    let e = write_config(&dir, "[[self_contact.pair]]\nname = \"lips/head-jaw\"\n")
+        .expect_err("direction is required");
+    assert!(matches!(e, ConfigError::Parse { .. }), "{e:?}");
+    assert!(e.to_string().contains("direction"), "{e}");
+    // The same pair twice.
+    let text = format!("{pair}direction = [0, 1, 0]\n{pair}direction = [0, -1, 0]\n");
+    let e = write_config(&dir, &text).expect_err("duplicate");
+    match &e {
+        ConfigError::Duplicate { what, first, .. } => {
+            assert!(what.contains("lips/head-jaw"), "{what}");
+            assert_eq!(first, "self_contact.pair[0]");
+        }
+        other => panic!("{other:?}"),
+    }
+    check_names(&e, &dir, "self_contact.pair[1].name");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn an_unknown_pair_name_lists_the_derived_pairs() {
+    let dir = mouth_dir("self-unknown");
+    let text = "[[self_contact.pair]]\nname = \"lips/jaw-head\"\ndirection = [0, 1, 0]\n";
+    let e = resolve_self(&dir, text).expect_err("unknown pair");
+    match &e {
+        ConfigError::UnknownPair {
+            name, available, ..
+        } => {
+            assert_eq!(name, "lips/jaw-head");
+            assert_eq!(available, "lips/head-jaw");
+        }
+        other => panic!("{other:?}"),
+    }
+    check_names(&e, &dir, "self_contact.pair[0].name");
+    assert!(e.to_string().contains("lips/head-jaw"), "{e}");
+    // A rig without joint pairs (separate rigid bodies): none to choose from.
+    let dir2 = scene_dir("self-none");
+    let cfg = write_config(&dir2, text).expect("parses");
+    let (rig, welded) = load_rig(&dir2);
+    let e = cfg
+        .resolve_self_contact(&rig, &welded)
+        .expect_err("no pairs");
+    match &e {
+        ConfigError::UnknownPair { available, .. } => assert_eq!(available, "none"),
+        other => panic!("{other:?}"),
+    }
+    check_names(&e, &dir2, "self_contact.pair[0].name");
+    // Derivation errors (a threshold selecting nothing is fine: no pair, so unknown).
+    let e = resolve_self(
+        &dir,
+        "[self_contact]\nthreshold = 0.999\n[[self_contact.pair]]\nname = \"lips/head-jaw\"\ndirection = [0, 1, 0]\n",
+    )
+    .expect_err("no pair above the threshold");
+    assert!(matches!(e, ConfigError::UnknownPair { .. }), "{e:?}");
+    for d in [&dir, &dir2] {
+        let _ = std::fs::remove_dir_all(d);
+    }
+}

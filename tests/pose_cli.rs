@@ -590,3 +590,230 @@ fn a_missing_config_is_a_clear_error() {
     assert!(!out.status.success(), "--no-contact excludes --diagnostics");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+// ---------------------------------------------------------------------------------------------
+// The self-contact pass (on by default, after the object pass)
+
+/// Penetrating vertices of the single body of `l` into itself (`metrics::residual_penetration`,
+/// `h` the rest mean edge length).
+fn self_penetration(l: &scenes::Loaded, welded_body: &[Point3<f64>]) -> usize {
+    use contact_skin::mesh::operators::{vertex_normals, NormalWeighting};
+    let t = &l.triangles[0];
+    let n = vertex_normals(welded_body, t, NormalWeighting::Area);
+    contact_skin::report::metrics::residual_penetration(welded_body, t, &n, l.h_rest).vertices
+}
+
+const SELF_FRAMES: usize = 13;
+
+#[test]
+fn self_contact_resolves_the_bending_capsule_and_does_not_depend_on_threads() {
+    let l = scenes::load("bending_capsule", SELF_FRAMES);
+    assert_eq!(l.rig.bodies.len(), 1, "one body: only self-contact can act");
+    let rig_path = committed("bending_capsule");
+    let (a, b, plain, no_self) = (tmp("s1"), tmp("s2"), tmp("s0"), tmp("sn"));
+    let n = SELF_FRAMES.to_string();
+    let base = |dir: &PathBuf, threads: &'static str| -> Vec<String> {
+        ["--threads", threads, "pose", s(&rig_path), "--out", s(dir)]
+            .iter()
+            .map(|x| x.to_string())
+            .chain(["--frames".to_string(), n.clone()])
+            .collect()
+    };
+    let run = |args: Vec<String>, extra: &[&str]| {
+        let mut all: Vec<&str> = args.iter().map(String::as_str).collect();
+        all.extend_from_slice(extra);
+        pose(&all)
+    };
+    let out = run(base(&a, "1"), &["--json", "--diagnostics"]);
+    run(base(&b, "2"), &[]);
+    run(base(&plain, "2"), &["--no-contact"]);
+    let no_self_out = run(base(&no_self, "2"), &["--no-self-contact", "--json"]);
+    let summary: Value = serde_json::from_slice(&out.stdout).expect("JSON summary");
+    assert_eq!(summary["contact"], true);
+    assert_eq!(summary["self_contact"], true);
+    assert_eq!(summary["self_contact_skipped"], Value::Null);
+    assert_eq!(
+        summary["self_contact_pairs"],
+        serde_json::json!(["capsule/lower-upper"])
+    );
+    assert_eq!(summary["contact_frames"], 0, "no other body to touch");
+    let no_self_summary: Value = serde_json::from_slice(&no_self_out.stdout).expect("JSON");
+    assert_eq!(no_self_summary["self_contact"], false);
+    assert_eq!(no_self_summary["fold_frames"], 0);
+    assert_eq!(no_self_summary["fold_ms"], Value::Null);
+    let (mut fold_frames, mut penetrating_frames) = (0, 0);
+    let (mut before_total, mut after_total) = (0, 0);
+    for i in 0..SELF_FRAMES {
+        let name = format!("frame_{i:04}.obj");
+        let bytes = std::fs::read(a.join(&name)).expect("frame");
+        assert_eq!(
+            bytes,
+            std::fs::read(b.join(&name)).expect("frame"),
+            "{name}: 1 and 2 threads"
+        );
+        let out = obj_bodies(&a.join(&name), &l.rig);
+        let skinned = obj_bodies(&plain.join(&name), &l.rig);
+        assert_eq!(
+            obj_bodies(&no_self.join(&name), &l.rig),
+            skinned,
+            "{name}: --no-self-contact is plain skinning on a single body"
+        );
+        let diag = read_json(&a.join(format!("frame_{i:04}.diag.json")));
+        let folds = diag["folds"].as_array().expect("folds");
+        let before = self_penetration(&l, &welded(&l, &skinned)[0]);
+        let after = self_penetration(&l, &welded(&l, &out)[0]);
+        println!(
+            "frame {i}: {} fold(s), penetrating vertices {before} -> {after}",
+            folds.len()
+        );
+        if folds.is_empty() {
+            assert_eq!(out, skinned, "{name}: without a fold, plain skinning");
+        } else {
+            fold_frames += 1;
+            assert_ne!(out, skinned, "{name}: a fold moves the body");
+            let mut zoned = false;
+            for f in folds {
+                assert_eq!(f["body"], 0);
+                assert_eq!(f["name"], "capsule/lower-upper");
+                let d: Vec<f64> = serde_json::from_value(f["direction"].clone()).expect("dir");
+                let norm = d.iter().map(|x| x * x).sum::<f64>().sqrt();
+                assert!((norm - 1.0).abs() < 1e-9, "unit direction");
+                let sizes: Vec<usize> = serde_json::from_value(f["zone_sizes"].clone()).expect("z");
+                assert_eq!(sizes.len(), 2);
+                zoned |= sizes.iter().all(|&z| z > 0);
+                assert!(f["sweep"].as_u64().is_some(), "sweep");
+                for key in ["threshold", "crease_cut", "bulge_height"] {
+                    assert!(f[key].as_f64().expect(key).is_finite(), "{key}");
+                }
+                for key in [
+                    "detection",
+                    "crease",
+                    "contact",
+                    "directions",
+                    "deformation",
+                    "volume",
+                ] {
+                    assert!(f["timings_s"][key].as_f64().expect(key) >= 0.0, "{key}");
+                }
+            }
+            assert!(zoned, "{name}: a fold with a zone on both sides");
+        }
+        if before > 0 {
+            penetrating_frames += 1;
+            assert!(
+                !folds.is_empty(),
+                "{name}: penetrating input without a fold"
+            );
+            assert!(
+                after < before,
+                "{name}: {before} -> {after} penetrating vertices"
+            );
+        }
+        before_total += before;
+        after_total += after;
+    }
+    assert!(
+        penetrating_frames >= 4,
+        "the bend penetrates: {penetrating_frames}"
+    );
+    assert!(
+        after_total * 4 < before_total,
+        "{before_total} -> {after_total} penetrating vertices in all"
+    );
+    assert_eq!(summary["fold_frames"], fold_frames);
+    assert_eq!(summary["folds"], serde_json::json!(["capsule/lower-upper"]));
+    for key in [
+        "detection",
+        "crease",
+        "contact",
+        "directions",
+        "deformation",
+        "volume",
+        "wall",
+    ] {
+        assert!(summary["fold_ms"][key].as_f64().expect(key) >= 0.0, "{key}");
+    }
+    assert!(summary["self_contact_ms"].as_f64().expect("ms") > 0.0);
+    for d in [&a, &b, &plain, &no_self] {
+        let _ = std::fs::remove_dir_all(d);
+    }
+}
+
+#[test]
+fn self_contact_follows_its_configuration() {
+    let dir = tmp("selfcfg");
+    std::fs::create_dir_all(&dir).expect("dir");
+    let rig_path = dir.join("bending_capsule.glb");
+    std::fs::copy(committed("bending_capsule"), &rig_path).expect("copy");
+    let l = scenes::load("bending_capsule", 5);
+    // Disabled in the file: the same as --no-self-contact.
+    let config = dir.join("bending_capsule.contact.toml");
+    std::fs::write(&config, "[self_contact]\nenabled = false\n").expect("config");
+    let (off, plain) = (dir.join("off"), dir.join("plain"));
+    let out = pose(&[
+        "pose",
+        s(&rig_path),
+        "--out",
+        s(&off),
+        "--frames",
+        "5",
+        "--json",
+    ]);
+    let summary: Value = serde_json::from_slice(&out.stdout).expect("summary");
+    assert_eq!(summary["config"], s(&config));
+    assert_eq!(summary["self_contact"], false);
+    pose(&[
+        "pose",
+        s(&rig_path),
+        "--out",
+        s(&plain),
+        "--frames",
+        "5",
+        "--no-contact",
+    ]);
+    for i in 0..5 {
+        let name = format!("frame_{i:04}.obj");
+        assert_eq!(
+            obj_bodies(&off.join(&name), &l.rig),
+            obj_bodies(&plain.join(&name), &l.rig),
+            "{name}"
+        );
+    }
+    // An unknown pair name is an error naming the field and listing the derived pairs.
+    std::fs::write(
+        &config,
+        "[[self_contact.pair]]\nname = \"capsule/upper-lower\"\ndirection = [0, 1, 0]\n",
+    )
+    .expect("config");
+    let out = Command::new(env!("CARGO_BIN_EXE_contact-skin"))
+        .args([
+            "pose",
+            s(&rig_path),
+            "--out",
+            s(&dir.join("bad")),
+            "--frames",
+            "2",
+        ])
+        .output()
+        .expect("run");
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("self_contact.pair[0].name")
+            && err.contains("capsule/upper-lower")
+            && err.contains("capsule/lower-upper"),
+        "{err}"
+    );
+    assert!(!dir.join("bad").join("frame_0000.obj").exists());
+    // ... but --no-self-contact does not read the table's pairs.
+    pose(&[
+        "pose",
+        s(&rig_path),
+        "--out",
+        s(&dir.join("bad")),
+        "--frames",
+        "2",
+        "--no-self-contact",
+    ]);
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -25,9 +25,13 @@ pub struct ContactRun {
     pub config: Option<PathBuf>,
     /// Passes per frame.
     pub passes: usize,
-    /// The self-contact pass (`None`: off, by `--no-self-contact` or `[self_contact] enabled
-    /// = false`).
+    /// The self-contact pass (`None`: off, by `--no-self-contact`, `[self_contact] enabled
+    /// = false`, or because it could not be built, see `self_contact_skipped`).
     pub self_contact: Option<SelfRun>,
+    /// Why the self-contact pass is off although asked for: it could not be built on this rig
+    /// (e.g. a joint pair with a degenerate shared region) and the configuration has no
+    /// `[self_contact]` table (with one, that is an error).
+    pub self_contact_skipped: Option<String>,
 }
 
 /// The self-contact pass of one run.
@@ -72,16 +76,27 @@ impl ContactRun {
                 )
             })?
             .with_passes(passes);
-        let self_contact = if self_contact && cfg.self_contact_enabled() {
-            Some(SelfRun::new(rig_path, rig, pre, &cfg, &rest)?)
+        let (self_contact, self_contact_skipped) = if self_contact && cfg.self_contact_enabled() {
+            match SelfRun::new(rig, pre, &cfg, &rest) {
+                Ok(s) => (Some(s), None),
+                Err(e) if cfg.self_contact.is_none() => (None, Some(e.to_string())),
+                Err(e) => {
+                    return Err(format!(
+                        "{}: self-contact pass: {e} (--no-self-contact leaves it out)",
+                        rig_path.display()
+                    )
+                    .into())
+                }
+            }
         } else {
-            None
+            (None, None)
         };
         Ok(Self {
             pass,
             config: used,
             passes,
             self_contact,
+            self_contact_skipped,
         })
     }
 }
@@ -89,7 +104,6 @@ impl ContactRun {
 impl SelfRun {
     /// Resolves `[self_contact]` and precomputes the pass on `rest` (welded rest positions).
     fn new(
-        rig_path: &Path,
         rig: &Rig,
         pre: &Precomputed,
         cfg: &ContactConfig,
@@ -103,13 +117,8 @@ impl SelfRun {
             &settings.regions,
             settings.params,
             &settings.directions,
-        )
-        .map_err(|e| {
-            format!(
-                "{}: self-contact pass: {e} (--no-self-contact skips it)",
-                rig_path.display()
-            )
-        })?;
+        )?
+        .with_passes(settings.passes);
         let pairs = pass.pairs();
         Ok(Self {
             pass,
@@ -254,6 +263,8 @@ pub struct FoldDiagnostics {
     pub body: usize,
     /// Pair name (`body/parent-child`).
     pub name: String,
+    /// Sweep over the folds (0 first; `[self_contact] passes`).
+    pub sweep: usize,
     /// `d̂_12` used: W1's (the parent side's) outward direction.
     pub direction: [f64; 3],
     /// Welded vertices in the contact zone of each side (W1's first).
@@ -368,11 +379,18 @@ pub fn diagnostics(rig: &Rig, pre: &Precomputed, c: &ContactFrame) -> FrameDiagn
         .self_output
         .iter()
         .flat_map(|s| &s.folds)
-        .map(|f| {
+        .enumerate()
+        .map(|(k, f)| {
             let o = &f.output;
+            let all = c.self_output.iter().flat_map(|s| &s.folds);
+            let sweep = all
+                .take(k)
+                .filter(|g| g.body == f.body && g.name == f.name)
+                .count();
             FoldDiagnostics {
                 body: f.body,
                 name: f.name.clone(),
+                sweep,
                 direction: [f.direction.x, f.direction.y, f.direction.z],
                 zone_sizes: [
                     o.contact.sides[0].zone.vertices.len(),

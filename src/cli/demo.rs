@@ -11,6 +11,7 @@ use super::contact::{
     self, median, median_folds, median_stages, ContactFrame, ContactRun, FoldMs, StageMs,
 };
 use super::CliResult;
+use contact_skin::config;
 use contact_skin::frames::{self, Frame, Precomputed};
 use contact_skin::mesh::operators::{mean_edge_length, vertex_normals, NormalWeighting};
 use contact_skin::mesh::signed_volume;
@@ -23,6 +24,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use nalgebra::Point3;
 use rayon::prelude::*;
 use serde::Serialize;
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -85,7 +87,7 @@ struct SelfContactRow {
     /// The joint pairs of the pass.
     pairs: Vec<String>,
     /// User directions by pair name (from the configuration).
-    directions: Vec<(String, [f64; 3])>,
+    directions: BTreeMap<String, [f64; 3]>,
     /// Frames where the pass resolved at least one fold.
     fold_frames: usize,
     /// `h`: rest mean edge length.
@@ -155,6 +157,23 @@ fn self_contact_methods(scene: Scene) -> &'static [Method] {
     }
 }
 
+/// The configuration the demo writes next to a scene's rig when there is none: the mouth's
+/// mapping direction is set by hand, vertical, as in the paper (Fig. 1d); outward for the
+/// upper lip, the parent (head) side W1.
+fn default_config(scene: Scene) -> Option<&'static str> {
+    match scene {
+        Scene::Mouth => Some(
+            "# Written by `contact-skin demo` (kept when present): as in the paper (Fig. 1d),\n\
+             # the lips' mapping direction is set by hand, vertical, outward for the upper lip\n\
+             # (the head side, W1).\n\
+             [[self_contact.pair]]\n\
+             name = \"lips/head-jaw\"\n\
+             direction = [0.0, -1.0, 0.0]\n",
+        ),
+        _ => None,
+    }
+}
+
 /// Runs `demo`.
 pub fn run(a: &Args) -> CliResult {
     std::fs::create_dir_all(a.out.join("rigs"))?;
@@ -176,6 +195,11 @@ pub fn run(a: &Args) -> CliResult {
         let rig_path = a.out.join("rigs").join(format!("{}.glb", scene.name()));
         output::write_atomic(&rig_path, &bytes)?;
         let rig = rig::load_from_bytes(&rig_path, &bytes)?;
+        if let (Some(text), Some(path)) = (default_config(scene), config::default_path(&rig_path)) {
+            if !path.exists() {
+                output::write_atomic(&path, text.as_bytes())?;
+            }
+        }
         for method in [Method::Lbs, Method::Dqs, Method::Cor] {
             pb.set_message(format!("{} ({method})", scene.name()));
             rows.extend(run_scene(a, scene, &rig, method)?);
@@ -430,7 +454,7 @@ fn run_self_contact(
         pairs: run.self_contact.as_ref().map_or(Vec::new(), |s| {
             s.pairs.iter().map(|p| p.1.clone()).collect()
         }),
-        directions: settings.map_or(Vec::new(), |s| {
+        directions: settings.map_or(BTreeMap::new(), |s| {
             s.directions
                 .iter()
                 .map(|(n, d)| (n.clone(), [d.x, d.y, d.z]))
@@ -633,7 +657,7 @@ fn print_self_contact_table(rows: &[SelfContactRow]) {
     }
     println!();
     println!(
-        "{:<16} {:<6} {:<6} {:>11} {:>28} {:>10} {:>9} {:>9} {:>9}",
+        "{:<16} {:<6} {:<6} {:>11} {:>32} {:>10} {:>9} {:>9} {:>9}",
         "scene",
         "anim",
         "skin",

@@ -84,6 +84,8 @@ struct SelfPairInfo {
 struct SelfContactInfo {
     /// `[self_contact] enabled` (default true).
     enabled: bool,
+    /// Sweeps over the folds per frame.
+    passes: usize,
     /// The configuration has a `[self_contact]` table (else: the pass defaults).
     configured: bool,
     threshold: f64,
@@ -247,6 +249,7 @@ fn describe_self_contact(
     let f = &settings.params;
     Ok(SelfContactInfo {
         enabled: settings.enabled,
+        passes: settings.passes,
         configured: cfg.self_contact.is_some(),
         threshold: settings.regions.threshold,
         grow_rings: settings.regions.grow_rings,
@@ -262,13 +265,14 @@ fn describe_self_contact(
 
 fn print_self_contact(s: &SelfContactInfo) {
     println!(
-        "  self-contact ({}{}): threshold {}, grow rings {}, stiffness {}, tau {}, extent {:.6}, gamma {}, omega {}",
+        "  self-contact ({}{}): {} sweep(s) per frame, threshold {}, grow rings {}, stiffness {}, tau {}, extent {:.6}, gamma {}, omega {}",
         if s.enabled { "on" } else { "off" },
         if s.configured {
             ", [self_contact] of the configuration"
         } else {
             ", defaults"
         },
+        s.passes,
         s.threshold,
         s.grow_rings,
         s.stiffness,

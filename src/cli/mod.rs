@@ -21,16 +21,18 @@ pub struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
-    /// Describe a rig: meshes, vertices, joints, animations, welded seams, problems found, and
-    /// its contact configuration resolved (objects and pairs).
+    /// Describe a rig: meshes, vertices, joints, animations, welded seams, problems found, its
+    /// contact configuration resolved (objects and pairs) and the joint pairs of self-contact.
     Info(info::Args),
-    /// Pose a rig through an animation, resolve the contacts between its objects (unless
-    /// --no-contact) and write the frames (OBJ per frame, or one baked glb).
+    /// Pose a rig through an animation, resolve the contacts between its objects and the
+    /// joints folding into themselves (unless --no-contact) and write the frames (OBJ per
+    /// frame, or one baked glb).
     Pose(pose::Args),
     /// Write the procedural test scenes (bending capsule, finger, mouth, ...) as glb files.
     Generate(GenerateArgs),
-    /// Run the built-in scenes end to end (skinning, and the contact pass on the scenes of
-    /// separate objects) and print what was done, with timings and metrics.
+    /// Run the built-in scenes end to end (skinning; the contact pass on the scenes of
+    /// separate objects, the self-contact pass on the single-body ones) and print what was
+    /// done, with timings and metrics.
     Demo(demo::Args),
 }
 

@@ -116,6 +116,8 @@ struct Summary {
     stage_ms: Option<StageMs>,
     /// Whether the self-contact pass ran.
     self_contact: bool,
+    /// Why it did not although asked for (it cannot be built on this rig; a warning).
+    self_contact_skipped: Option<String>,
     /// Joint pairs of the self-contact pass (`body/parent-child`), in the order they run.
     self_contact_pairs: Vec<String>,
     /// Frames where the self-contact pass resolved at least one fold.
@@ -227,6 +229,16 @@ pub fn run(a: &Args) -> CliResult {
         )?)
     };
     let precompute_ms = t_pre.elapsed().as_secs_f64() * 1e3;
+    if let Some(why) = contact
+        .as_ref()
+        .and_then(|c| c.self_contact_skipped.as_ref())
+    {
+        eprintln!(
+            "warning: {}: self-contact pass off: {why} (with a [self_contact] table in the \
+             configuration this is an error; --no-self-contact leaves the pass out)",
+            a.rig.display()
+        );
+    }
     std::fs::create_dir_all(&a.out)?;
     let job = Job {
         args: a,
@@ -331,6 +343,7 @@ fn summarize(
         median_frame_ms: median(stats.iter().map(|s| s.ms).collect()),
         stage_ms: job.contact.map(|_| median_stages(&timings)),
         self_contact: self_run.is_some(),
+        self_contact_skipped: job.contact.and_then(|c| c.self_contact_skipped.clone()),
         self_contact_pairs: pairs,
         fold_frames: stats.iter().filter(|s| !s.folds.is_empty()).count(),
         folds,
