@@ -962,12 +962,12 @@ fn object_params(p: &ParamSpec, rest_diagonal: f64) -> ObjectParams {
 // Self-contact
 
 impl ContactConfig {
-    /// Whether the self-contact pass runs (`[self_contact] enabled`, default `true`).
+    /// Whether the self-contact pass runs: with a `[self_contact]` table, its `enabled`
+    /// (default `true`); without one, `false` (the pass is opt-in while it is experimental).
     pub fn self_contact_enabled(&self) -> bool {
         self.self_contact
             .as_ref()
-            .and_then(|s| s.enabled)
-            .unwrap_or(true)
+            .is_some_and(|s| s.enabled.unwrap_or(true))
     }
 
     /// How working regions are derived: `threshold` and `grow_rings` of `[self_contact]`, else

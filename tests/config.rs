@@ -710,17 +710,26 @@ fn without_a_self_contact_table_the_pass_defaults_apply() {
         directions: Vec::new(),
         passes: DEFAULT_FOLD_PASSES,
     };
-    for text in ["# nothing\n", "[self_contact]\n"] {
+    // Without a table the pass is off (opt-in while experimental); an empty table turns it
+    // on with the defaults.
+    for (text, enabled) in [("# nothing\n", false), ("[self_contact]\n", true)] {
         let cfg = write_config(&dir, text).expect("parses");
         assert!(!cfg.self_contact_needs_pairs());
-        assert_eq!(resolve_self(&dir, text).expect("resolves"), defaults);
+        let expected = SelfContactSettings {
+            enabled,
+            ..defaults.clone()
+        };
+        assert_eq!(resolve_self(&dir, text).expect("resolves"), expected);
     }
     let (rig, _) = load_mouth(&dir);
     assert_eq!(
         ContactConfig::default()
             .resolve_self_contact_with(&rig, &[])
             .expect("resolves"),
-        defaults
+        SelfContactSettings {
+            enabled: false,
+            ..defaults
+        }
     );
     let s = resolve_self(&dir, "[self_contact]\nextent = 0.2\n").expect("resolves");
     assert_eq!(s.params.deform.extent, 0.2);

@@ -75,6 +75,7 @@ fn obj_frames_follow_the_contract_and_do_not_depend_on_threads() {
             "7",
             "--skinning",
             "dqs",
+            "--no-contact",
         ]);
     }
     let rig = rig::load(&rig_path).expect("load");
@@ -624,8 +625,11 @@ fn self_contact_resolves_the_bending_capsule_and_does_not_depend_on_threads() {
         all.extend_from_slice(extra);
         pose(&all)
     };
-    let out = run(base(&a, "1"), &["--json", "--diagnostics"]);
-    run(base(&b, "2"), &[]);
+    let out = run(
+        base(&a, "1"),
+        &["--json", "--diagnostics", "--self-contact"],
+    );
+    run(base(&b, "2"), &["--self-contact"]);
     run(base(&plain, "2"), &["--no-contact"]);
     let no_self_out = run(base(&no_self, "2"), &["--no-self-contact", "--json"]);
     let summary: Value = serde_json::from_slice(&out.stdout).expect("JSON summary");

@@ -47,15 +47,17 @@ pub struct SelfRun {
 impl ContactRun {
     /// Finds the configuration (`config`, else `<rig stem>.contact.toml` next to the rig, else
     /// defaults), resolves it against `rig` and precomputes the passes on the rest pose.
-    /// `passes` overrides the configuration's; `self_contact = false` leaves the self-contact
-    /// pass out (as does `[self_contact] enabled = false`).
+    /// `passes` overrides the configuration's; `self_contact`: `Some(true)` runs the
+    /// self-contact pass, `Some(false)` leaves it out, `None` follows the configuration (on
+    /// when it has a `[self_contact]` table not disabled: the pass is still experimental,
+    /// see the README).
     pub fn new(
         rig_path: &Path,
         rig: &Rig,
         pre: &Precomputed,
         config: Option<&Path>,
         passes: Option<usize>,
-        self_contact: bool,
+        self_contact: Option<bool>,
     ) -> Result<Self, BoxError> {
         let found = ContactConfig::for_rig(rig_path, config)?;
         let used = found.as_ref().map(|c| c.file.clone());
@@ -76,7 +78,8 @@ impl ContactRun {
                 )
             })?
             .with_passes(passes);
-        let (self_contact, self_contact_skipped) = if self_contact && cfg.self_contact_enabled() {
+        let wanted = self_contact.unwrap_or_else(|| cfg.self_contact_enabled());
+        let (self_contact, self_contact_skipped) = if wanted {
             match SelfRun::new(rig, pre, &cfg, &rest) {
                 Ok(s) => (Some(s), None),
                 Err(e) if cfg.self_contact.is_none() => (None, Some(e.to_string())),

@@ -251,7 +251,7 @@ fn run_contact(
         return Ok(row);
     }
     let pre = Precomputed::new(rig, Method::Lbs);
-    let run = ContactRun::new(rig_path, rig, &pre, None, None, true)?;
+    let run = ContactRun::new(rig_path, rig, &pre, None, None, Some(true))?;
     let times = frames::sample_times(rig, Some(0), a.frames);
     let timed: Vec<(ContactFrame, f64)> = times
         .par_iter()
@@ -378,7 +378,7 @@ fn run_self_contact(
         return Ok(None);
     }
     let pre = Precomputed::new(rig, method);
-    let run = ContactRun::new(rig_path, rig, &pre, None, None, true)?;
+    let run = ContactRun::new(rig_path, rig, &pre, None, None, Some(true))?;
     let times = frames::sample_times(rig, Some(0), a.frames);
     let timed: Vec<(ContactFrame, f64)> = times
         .par_iter()

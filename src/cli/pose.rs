@@ -70,8 +70,12 @@ pub struct Args {
     no_contact: bool,
     /// Leave out the self-contact pass (joints folding into themselves); the contact pass
     /// between objects still runs.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "self_contact")]
     no_self_contact: bool,
+    /// Run the self-contact pass (experimental: see the README) even without a
+    /// `[self_contact]` table in the configuration.
+    #[arg(long)]
+    self_contact: bool,
     /// Contact configuration (TOML). Default: `<rig stem>.contact.toml` next to the rig if it
     /// exists, else the default parameters.
     #[arg(long, value_name = "PATH")]
@@ -225,7 +229,13 @@ pub fn run(a: &Args) -> CliResult {
             &pre,
             a.config.as_deref(),
             passes,
-            !a.no_self_contact,
+            if a.no_self_contact {
+                Some(false)
+            } else if a.self_contact {
+                Some(true)
+            } else {
+                None
+            },
         )?)
     };
     let precompute_ms = t_pre.elapsed().as_secs_f64() * 1e3;

@@ -95,9 +95,19 @@ pub fn derive_pairs(
     welded: &[WeldedMesh],
     options: &RegionOptions,
 ) -> Result<Vec<PairRegions>, SelfContactError> {
+    derive_pairs_reporting(rig, welded, options).map(|(pairs, _)| pairs)
+}
+
+/// [`derive_pairs`], also returning why pairs were skipped (one message per skipped pair).
+pub fn derive_pairs_reporting(
+    rig: &Rig,
+    welded: &[WeldedMesh],
+    options: &RegionOptions,
+) -> Result<(Vec<PairRegions>, Vec<String>), SelfContactError> {
     check_options(options)?;
     check_welded(rig, welded)?;
     let mut out = Vec::new();
+    let mut skipped = Vec::new();
     for (b, (body, mesh)) in rig.bodies.iter().zip(welded).enumerate() {
         let skin = skin_of(rig, body)?;
         check_body(body, mesh, skin)?;
@@ -109,12 +119,21 @@ pub fn derive_pairs(
             let Some(p) = weighted_ancestor(rig, skin, &carries, child) else {
                 continue;
             };
-            if let Some(pair) = build_pair(rig, b, mesh, skin, p, c, options)? {
-                out.push(pair);
+            match build_pair(rig, b, mesh, skin, p, c, options) {
+                Ok(Some(pair)) => out.push(pair),
+                Ok(None) => {}
+                // A pair whose shared region cannot carry a partition of unity (one-sided or
+                // unreachable border: e.g. a joint whose weights never overlap its parent's
+                // over a band) is skipped, not fatal: the rest of the rig still works.
+                Err(e @ SelfContactError::DegenerateSharedRegion { .. })
+                | Err(e @ SelfContactError::UnreachedSharedRegion { .. }) => {
+                    skipped.push(e.to_string())
+                }
+                Err(e) => return Err(e),
             }
         }
     }
-    Ok(out)
+    Ok((out, skipped))
 }
 
 /// Working regions of the joint pairs a rig config names, as `(parent, child)` node names
