@@ -88,9 +88,8 @@ fn run(name: &str, frames: usize) -> Run {
 }
 
 /// The bending capsule's `bend` (0 to 150°): the fold is resolved with the volume kept.
-/// Measured, not yet at the issue's targets (see the issue note): up to 4 vertices still
-/// penetrate past 85° (from up to 607), faces along the crease flip (up to 72), and the
-/// crease cut, a discrete partition, makes the animation jump (second-difference ratio 6.3).
+/// Not yet at the issue's targets (see the issue note): faces next to the crease still flip
+/// (up to 72 at 150°).
 #[test]
 fn bending_capsule_fold() {
     let r = run("bending_capsule", 31);
@@ -103,16 +102,13 @@ fn bending_capsule_fold() {
         assert_eq!(nan, 0, "frame {f}: NaN");
         if folds > 0 {
             assert!(vol < 1e-4, "frame {f}: volume error {vol}");
-            assert!(
-                after * 5 <= before,
-                "frame {f}: penetration {before} -> {after}"
-            );
+            assert!(after <= 2, "frame {f}: penetration {before} -> {after}");
         }
         if f <= 15 {
             assert_eq!(after, 0, "frame {f}: penetration left up to 75°");
         }
     }
-    assert!(r.ratio.is_finite());
+    assert!(r.ratio < 3.0, "temporal ratio {}", r.ratio);
 }
 
 /// The finger's three joints flexing past contact.
@@ -124,10 +120,79 @@ fn finger_folds() {
         assert_eq!(nan, 0, "frame {f}: NaN");
         if folds > 0 {
             assert!(vol < 1e-4, "frame {f}: volume error {vol}");
-            assert!(
-                after * 2 <= before,
-                "frame {f}: penetration {before} -> {after}"
-            );
+            assert!(after <= 10, "frame {f}: penetration {before} -> {after}");
         }
     }
+    assert!(r.ratio < 3.0, "temporal ratio {}", r.ratio);
+}
+
+#[test]
+#[ignore = "debugging aid"]
+fn probe_inverted() {
+    let l = load("bending_capsule", 31);
+    let rest = welded_positions(&l.rig, &l.pre, 0.0, None);
+    let pass = SelfContactPass::new(
+        &l.rig,
+        &l.pre.welded,
+        &rest,
+        &RegionOptions::default(),
+        FoldParams::default(),
+        &[],
+    )
+    .expect("pre")
+    .with_passes(1);
+    let f = 20;
+    let input = l.frame(f);
+    let mut out = input.clone();
+    let pose = l.rig.pose_at(Some(0), l.times[f]);
+    let res = pass.run(&l.rig, &pose, &mut out).expect("runs");
+    let o = &res.folds[0].output;
+    let d = res.folds[0].direction;
+    let t = &l.triangles[0];
+    let z = |v: usize| {
+        if o.contact.sides[0].zone.inside[v] {
+            "C1"
+        } else if o.contact.sides[1].zone.inside[v] {
+            "C2"
+        } else {
+            "--"
+        }
+    };
+    let mut count = 0;
+    for tri in t {
+        let (a, b) = (&input[0], &out[0]);
+        let n0 = (a[tri[1] as usize] - a[tri[0] as usize])
+            .cross(&(a[tri[2] as usize] - a[tri[0] as usize]));
+        let n1 = (b[tri[1] as usize] - b[tri[0] as usize])
+            .cross(&(b[tri[2] as usize] - b[tri[0] as usize]));
+        if n0.dot(&n1) >= 0.0 {
+            continue;
+        }
+        count += 1;
+        if count > 12 {
+            continue;
+        }
+        let info: Vec<String> = tri
+            .iter()
+            .map(|&v| {
+                let v = v as usize;
+                let disp = b[v] - a[v];
+                format!(
+                    "{} w1 {} σ {:+.2} n·d {:+.2} disp·d {:+.3}h |disp| {:.3}h",
+                    z(v),
+                    o.crease.on_w1[v] as u8,
+                    o.sigma[v],
+                    vertex_normals(a, t, NormalWeighting::Area)[v].dot(&d),
+                    disp.dot(&d) / l.h_rest,
+                    disp.norm() / l.h_rest
+                )
+            })
+            .collect();
+        println!(
+            "face n0·n1 {:.2e}: {:?}",
+            n0.normalize().dot(&n1.normalize()),
+            info
+        );
+    }
+    println!("{count} inverted");
 }

@@ -554,7 +554,12 @@ fn contact_directions(contacts: &[&ContactSide], points: &[CutPoint]) -> Vec<Vec
         .collect()
 }
 
-/// Eq. 6 with `w(u) = (1 - u²)^6`; the normal where the blend vanishes.
+/// Eq. 6 with `w(u) = (1 - u²)^6`, generalized to a mapping field `d̄` shorter than 1:
+/// `d = normalize(w d̄ + (1 - w |d̄|) n)`. With a unit `d̄` (one contact) this is Eq. 6 exactly;
+/// where `d̄` fades (self-contact's `σ d̂` across the crease, `σ → 0`; several contacts pulling
+/// apart) the normal takes over continuously, as Sec. 6 intends ("gently fall back to the
+/// normal field"), instead of `normalize(σ d̂)` flipping between `±d̂` at `u ≈ 0`, which turned
+/// faces over along the crease. The normal where the blend vanishes.
 fn blend_direction(
     dbar: &Vector3<f64>,
     n: &Vector3<f64>,
@@ -562,7 +567,8 @@ fn blend_direction(
     stats: &mut DeformStats,
 ) -> Vector3<f64> {
     let w = (1.0 - u * u).powi(6);
-    let v = dbar * w + n * (1.0 - w);
+    let strength = dbar.norm().min(1.0);
+    let v = dbar * w + n * (1.0 - w * strength);
     match v.try_normalize(1e-6) {
         Some(d) => d,
         None => {
