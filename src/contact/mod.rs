@@ -20,7 +20,7 @@ use crate::intersect::{
     IntersectError, IntersectionRegion, IntersectionStats, Intersections, PosedMesh, Side,
 };
 pub use mapping::{Mapping, MappingRegion, MappingStats, SideFrame};
-use nalgebra::{Point3, Vector3};
+use nalgebra::Vector3;
 use std::time::Instant;
 pub use zones::{SurfaceSample, Zone, ZoneBoundaryPoint};
 
@@ -186,7 +186,7 @@ fn resolve(
         IntersectionRegion::inside(&ints, Side::B, b.mesh)?,
     ];
     if same_mesh {
-        inside_by_winding([a, b], &mut regions);
+        inside_by_winding([a, b], &ints, &mut regions);
     }
     let t_int = start.elapsed().as_secs_f64();
     let Some(dir_a) = pair_direction(a, b, &regions, params)? else {
@@ -295,33 +295,45 @@ fn pair_direction(
 /// is at least 1.5 (the nudged point is inside its own body and inside the other part).
 /// Faces with all corners inside are whole faces, faces with some are cut faces (without
 /// sub-triangles: the self-contact direction comes from the skeleton, not from Eq. 2).
-fn inside_by_winding(parts: [SideFrame; 2], regions: &mut [IntersectionRegion; 2]) {
+fn inside_by_winding(
+    parts: [SideFrame; 2],
+    ints: &Intersections,
+    regions: &mut [IntersectionRegion; 2],
+) {
     let positions = parts[0].mesh.positions();
     let triangles = parts[0].mesh.triangles();
     let h = crate::mesh::operators::mean_edge_length(positions, triangles);
     let winding = crate::report::metrics::WindingNumber::new(positions, triangles);
-    for (part, region) in parts.iter().zip(regions.iter_mut()) {
-        let faces = part.mesh.index().faces();
-        let mut used = vec![false; positions.len()];
-        for &f in faces {
-            for v in triangles[f as usize] {
-                used[v as usize] = true;
+    for (k, (part, region)) in parts.iter().zip(regions.iter_mut()).enumerate() {
+        let index = part.mesh.index();
+        let is_inside = |v: u32| {
+            let q = positions[v as usize] - part.normals[v as usize] * (1e-3 * h);
+            winding.query(&q) >= 1.5
+        };
+        // Every component of I_l touches the intersection curve: search from the corners of
+        // the crossed faces, across edges, expanding only from vertices found inside.
+        let mut state = vec![0u8; positions.len()]; // 0 unseen, 1 outside, 2 inside
+        let mut stack: Vec<u32> = ints
+            .segments
+            .iter()
+            .flat_map(|s| triangles[s.faces[k] as usize])
+            .collect();
+        while let Some(v) = stack.pop() {
+            if state[v as usize] != 0 || !index.uses_vertex(v) {
+                continue;
+            }
+            let inside = is_inside(v);
+            state[v as usize] = if inside { 2 } else { 1 };
+            if inside {
+                for &e in index.vertex_edges(v) {
+                    let [a, b] = index.edges()[e as usize];
+                    stack.push(if a == v { b } else { a });
+                }
             }
         }
-        let verts: Vec<u32> = (0..positions.len() as u32)
-            .filter(|&v| used[v as usize])
-            .collect();
-        let nudged: Vec<Point3<f64>> = verts
-            .iter()
-            .map(|&v| positions[v as usize] - part.normals[v as usize] * (1e-3 * h))
-            .collect();
-        let w = winding.query_many(&nudged);
-        let mut inside = vec![false; positions.len()];
-        for (&v, &wv) in verts.iter().zip(&w) {
-            inside[v as usize] = wv >= 1.5;
-        }
+        let inside: Vec<bool> = state.iter().map(|&s| s == 2).collect();
         let (mut whole, mut cut) = (Vec::new(), Vec::new());
-        for &f in faces {
+        for &f in index.faces() {
             let n = triangles[f as usize]
                 .iter()
                 .filter(|&&v| inside[v as usize])

@@ -1,0 +1,127 @@
+//! The self-contact pass (2021 Sec. 6) per frame, with its per-step breakdown: detection,
+//! crease cut, contact on the truncated regions (Sec. 4.2-4.4), direction field `σ`, the two
+//! regions' deformation (Sec. 5), blend and volume. Scenes: the committed `finger.glb` (three
+//! joints; the paper's skinned finger has 1967 + 2951 vertices) and `bending_capsule.glb`, LBS
+//! input, default parameters (two sweeps over the folds), one thread.
+//!
+//! Run with `cargo bench --bench selfcontact`.
+
+use contact_skin::frames::{self, Precomputed};
+use contact_skin::rig::{self, Rig};
+use contact_skin::selfcontact::fold::{FoldParams, FoldTimings};
+use contact_skin::selfcontact::pass::SelfContactPass;
+use contact_skin::selfcontact::RegionOptions;
+use contact_skin::skinning::Method;
+use criterion::{criterion_group, criterion_main, Criterion};
+use nalgebra::Point3;
+use std::hint::black_box;
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+fn welded(rig: &Rig, pre: &Precomputed, t: f64, anim: Option<usize>) -> Vec<Vec<Point3<f64>>> {
+    let f = frames::evaluate(rig, pre, anim, 0, t);
+    f.bodies
+        .iter()
+        .zip(&pre.welded)
+        .map(|(b, w)| w.gather(&b.positions))
+        .collect()
+}
+
+fn setup(name: &str, passes: usize) -> (Rig, Precomputed, SelfContactPass, Vec<f64>) {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("rigs")
+        .join(format!("{name}.glb"));
+    let rig = rig::load(&path).expect("committed rig");
+    let pre = Precomputed::new(&rig, Method::Lbs);
+    let rest = welded(&rig, &pre, 0.0, None);
+    let start = Instant::now();
+    let pass = SelfContactPass::new(
+        &rig,
+        &pre.welded,
+        &rest,
+        &RegionOptions::default(),
+        FoldParams::default(),
+        &[],
+    )
+    .expect("pass")
+    .with_passes(passes);
+    println!(
+        "{name}: precomputation {:.1} ms",
+        1e3 * start.elapsed().as_secs_f64()
+    );
+    let times = frames::sample_times(&rig, Some(0), Some(61));
+    (rig, pre, pass, times)
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v.get(v.len() / 2).copied().unwrap_or(0.0)
+}
+
+fn breakdown(name: &str, passes: usize) {
+    let (rig, pre, pass, times) = setup(name, passes);
+    let mut rows: Vec<(FoldTimings, f64)> = Vec::new();
+    for &t in &times {
+        let mut pos = welded(&rig, &pre, t, Some(0));
+        let pose = rig.pose_at(Some(0), t);
+        let start = Instant::now();
+        let out = pass.run(&rig, &pose, &mut pos).expect("pass");
+        let wall = start.elapsed().as_secs_f64();
+        if !out.folds.is_empty() {
+            rows.push((out.timings, wall));
+        }
+    }
+    let col = |f: fn(&FoldTimings) -> f64| 1e3 * median(rows.iter().map(|(t, _)| f(t)).collect());
+    println!(
+        "{name}, {passes} sweep(s), one thread, median over {} frames with a fold:",
+        rows.len()
+    );
+    for (label, ms) in [
+        ("detection", col(|t| t.detection)),
+        ("crease cut", col(|t| t.crease)),
+        ("contact (Sec. 4)", col(|t| t.contact)),
+        ("directions (sigma)", col(|t| t.directions)),
+        ("deformation (Sec. 5)", col(|t| t.deformation)),
+        ("blend + volume", col(|t| t.volume)),
+    ] {
+        println!("  {label:<22} {ms:>8.3} ms");
+    }
+    println!(
+        "  {:<22} {:>8.3} ms",
+        "wall",
+        1e3 * median(rows.iter().map(|r| r.1).collect())
+    );
+}
+
+fn bench(c: &mut Criterion) {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .expect("pool");
+    pool.install(|| {
+        for name in ["finger", "bending_capsule"] {
+            breakdown(name, 1);
+            breakdown(name, 2);
+        }
+    });
+    let mut g = c.benchmark_group("selfcontact");
+    g.measurement_time(Duration::from_secs(5)).sample_size(10);
+    for name in ["finger", "bending_capsule"] {
+        let (rig, pre, pass, times) = setup(name, 1);
+        let t = *times.last().unwrap_or(&0.0);
+        let input = welded(&rig, &pre, t, Some(0));
+        let pose = rig.pose_at(Some(0), t);
+        g.bench_function(format!("{name}/deepest frame/1 sweep/1 thread"), |b| {
+            b.iter(|| {
+                pool.install(|| {
+                    let mut pos = input.clone();
+                    black_box(pass.run(&rig, &pose, &mut pos).expect("pass"))
+                })
+            })
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
