@@ -165,3 +165,25 @@ fn bad_input_gives_typed_errors() {
     let out = pass.run(&[a.clone(), b.clone()]).expect("runs");
     assert!(finite(&out.positions));
 }
+
+/// Sec. 4.2: when one object sinks past its silhouette into the other, the other side's
+/// mapping region grows beyond its intersection region through the extruded contour quads
+/// (`P_l(B_k)`), and the result has no residual penetration beyond the chord tolerance.
+#[test]
+fn extruded_contours_extend_the_mapping_region_in_deep_contact() {
+    let s = icosphere(3);
+    let a = moved(&s, 1.0, Vector3::zeros());
+    let b = moved(&s, 0.6, Vector3::new(0.0, 0.0, 1.6 - 1.1));
+    let pass = pass_for(&[(&a, &s.triangles), (&b, &s.triangles)]).with_passes(1);
+    let out = pass.run(&[a.clone(), b.clone()]).expect("runs");
+    let c = &out.contacts[0].contact;
+    let (sa, sb) = (&c.sides[0].mapping, &c.sides[1].mapping);
+    println!("mapping A {sa:?}\nmapping B {sb:?}");
+    assert!(sa.contour_segments + sb.contour_segments > 0, "a silhouette inside the other body");
+    assert!(sa.wall_crossings + sb.wall_crossings > 0);
+    assert!(sa.projected + sb.projected > 0, "P_l(B_k) adds vertices beyond B_l");
+    // Rays of B_l always hit; the propagation of P_l(B_k) stops at its first unmappable
+    // vertices (counted as misses).
+    let nan = out.positions.iter().map(|p| metrics::non_finite(p)).sum::<usize>();
+    assert_eq!(nan, 0);
+}
