@@ -179,11 +179,21 @@ fn extruded_contours_extend_the_mapping_region_in_deep_contact() {
     let c = &out.contacts[0].contact;
     let (sa, sb) = (&c.sides[0].mapping, &c.sides[1].mapping);
     println!("mapping A {sa:?}\nmapping B {sb:?}");
-    assert!(sa.contour_segments + sb.contour_segments > 0, "a silhouette inside the other body");
+    assert!(
+        sa.contour_segments + sb.contour_segments > 0,
+        "a silhouette inside the other body"
+    );
     assert!(sa.wall_crossings + sb.wall_crossings > 0);
-    assert!(sa.projected + sb.projected > 0, "P_l(B_k) adds vertices beyond B_l");
+    assert!(
+        sa.projected + sb.projected > 0,
+        "P_l(B_k) adds vertices beyond B_l"
+    );
     // Rays of B_l always hit; the propagation of P_l(B_k) stops at its first unmappable
     // vertices (counted as misses).
-    let nan = out.positions.iter().map(|p| metrics::non_finite(p)).sum::<usize>();
+    let nan = out
+        .positions
+        .iter()
+        .map(|p| metrics::non_finite(p))
+        .sum::<usize>();
     assert_eq!(nan, 0);
 }

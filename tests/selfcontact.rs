@@ -126,6 +126,95 @@ fn finger_folds() {
     assert!(r.ratio < 3.0, "temporal ratio {}", r.ratio);
 }
 
+/// PIPELINE.md's check of the crease cut: it follows the fold, i.e. every vertex of a cut edge
+/// of the shared region lies within one ring of the silhouette of `R` seen from `d̂`
+/// (vertices where `n·d̂` changes sign along an edge). Measured on the bending capsule.
+#[test]
+fn crease_cut_follows_the_silhouette() {
+    use contact_skin::selfcontact::fold::{resolve_fold, FoldPre};
+    use contact_skin::selfcontact::{derive_pairs, skeleton_direction, BoneAxes};
+    let l = load("bending_capsule", 31);
+    let rest = welded_positions(&l.rig, &l.pre, 0.0, None);
+    let pairs = derive_pairs(&l.rig, &l.pre.welded, &RegionOptions::default()).expect("pairs");
+    let regions = pairs.into_iter().next().expect("one pair");
+    let axes = BoneAxes::new(&l.rig, &l.pre.welded[0], &regions);
+    let pair = regions.pair.clone();
+    let (w1, w2) = (regions.w1.clone(), regions.w2.clone());
+    let pre = FoldPre::new(&rest[0], &l.triangles[0], regions).expect("fold");
+    let mut worst = 0;
+    let mut cut_frames = 0;
+    for f in [12, 18, 24, 30] {
+        let input = l.frame(f);
+        let pose = l.rig.pose_at(Some(0), l.times[f]);
+        let d = skeleton_direction(&l.rig, &pose, &pair, axes.leaf_axis).expect("direction");
+        let n = vertex_normals(&input[0], &l.triangles[0], NormalWeighting::Area);
+        let Some(out) = resolve_fold(
+            &pre,
+            &input[0],
+            &n,
+            &l.triangles[0],
+            d,
+            &FoldParams::default(),
+        )
+        .expect("fold runs") else {
+            continue;
+        };
+        cut_frames += 1;
+        let shared: Vec<bool> = w1.iter().zip(&w2).map(|(a, b)| *a && *b).collect();
+        let dist =
+            crease_distance_to_silhouette(&l.triangles[0], &n, &out.crease.on_w1, &shared, &d);
+        println!("frame {f}: crease vertices within {dist} rings of the silhouette");
+        worst = worst.max(dist);
+    }
+    assert!(cut_frames >= 3);
+    assert!(
+        worst <= 1,
+        "the crease cut strays {worst} rings from the silhouette"
+    );
+}
+
+/// Largest topological distance (in rings) from a vertex of a cut edge of the shared region to
+/// the silhouette of the shared region seen from `d̂`.
+fn crease_distance_to_silhouette(
+    triangles: &[[u32; 3]],
+    normals: &[nalgebra::Vector3<f64>],
+    on_w1: &[bool],
+    shared: &[bool],
+    d: &nalgebra::Vector3<f64>,
+) -> usize {
+    let n = normals.len();
+    let mut adj: Vec<Vec<usize>> = vec![Vec::new(); n];
+    for t in triangles {
+        for k in 0..3 {
+            let (a, b) = (t[k] as usize, t[(k + 1) % 3] as usize);
+            adj[a].push(b);
+            adj[b].push(a);
+        }
+    }
+    let g: Vec<f64> = normals.iter().map(|x| x.dot(d)).collect();
+    let mut dist = vec![usize::MAX; n];
+    let mut queue = std::collections::VecDeque::new();
+    for v in 0..n {
+        if shared[v] && adj[v].iter().any(|&w| shared[w] && g[v] * g[w] <= 0.0) {
+            dist[v] = 0;
+            queue.push_back(v);
+        }
+    }
+    while let Some(v) = queue.pop_front() {
+        for &w in &adj[v] {
+            if dist[w] == usize::MAX {
+                dist[w] = dist[v] + 1;
+                queue.push_back(w);
+            }
+        }
+    }
+    (0..n)
+        .filter(|&v| shared[v] && adj[v].iter().any(|&w| shared[w] && on_w1[w] != on_w1[v]))
+        .map(|v| dist[v])
+        .max()
+        .unwrap_or(0)
+}
+
 #[test]
 #[ignore = "debugging aid"]
 fn probe_inverted() {
