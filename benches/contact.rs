@@ -146,6 +146,43 @@ fn bench(c: &mut Criterion) {
         });
     }
     g.finish();
+    batch(c);
+}
+
+/// Batch evaluation of an animation (skinning + contact pass for 31 frames, frames in
+/// parallel as `pose` does): one thread against every core.
+fn batch(c: &mut Criterion) {
+    use rayon::prelude::*;
+    let mut g = c.benchmark_group("batch");
+    g.measurement_time(Duration::from_secs(6)).sample_size(10);
+    let s = scene("fingertips_ball", 1);
+    let times: Vec<f64> = frames::sample_times(&s.rig, Some(0), Some(31));
+    for threads in [1, 2] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("pool");
+        g.bench_function(
+            format!("fingertips_ball/31 frames/{threads} thread(s)"),
+            |b| {
+                b.iter(|| {
+                    pool.install(|| {
+                        times
+                            .par_iter()
+                            .map(|&t| {
+                                s.pass
+                                    .run_at(&welded(&s.rig, &s.pre, t, Some(0)), t)
+                                    .expect("pass")
+                                    .positions
+                                    .len()
+                            })
+                            .sum::<usize>()
+                    })
+                })
+            },
+        );
+    }
+    g.finish();
 }
 
 criterion_group!(benches, bench);
