@@ -28,12 +28,7 @@ struct Scene {
 }
 
 fn welded(rig: &Rig, pre: &Precomputed, t: f64, anim: Option<usize>) -> Vec<Vec<Point3<f64>>> {
-    let f = frames::evaluate(rig, pre, anim, 0, t);
-    f.bodies
-        .iter()
-        .zip(&pre.welded)
-        .map(|(b, w)| w.gather(&b.positions))
-        .collect()
+    frames::welded_positions(rig, pre, anim, t)
 }
 
 fn scene(name: &str, passes: usize) -> Scene {

@@ -19,12 +19,7 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 
 fn welded(rig: &Rig, pre: &Precomputed, t: f64, anim: Option<usize>) -> Vec<Vec<Point3<f64>>> {
-    let f = frames::evaluate(rig, pre, anim, 0, t);
-    f.bodies
-        .iter()
-        .zip(&pre.welded)
-        .map(|(b, w)| w.gather(&b.positions))
-        .collect()
+    frames::welded_positions(rig, pre, anim, t)
 }
 
 fn setup(name: &str, passes: usize) -> (Rig, Precomputed, SelfContactPass, Vec<f64>) {

@@ -91,3 +91,20 @@ pub fn sample_times(rig: &Rig, animation: Option<usize>, frames: Option<usize>) 
         }
     }
 }
+
+/// Welded positions of every body at time `t` of `animation` (rest pose for `None`): the input
+/// of the contact passes, which work on the welded surfaces.
+pub fn welded_positions(
+    rig: &Rig,
+    pre: &Precomputed,
+    animation: Option<usize>,
+    t: f64,
+) -> Vec<Vec<nalgebra::Point3<f64>>> {
+    let frame = evaluate(rig, pre, animation, 0, t);
+    frame
+        .bodies
+        .iter()
+        .zip(&pre.welded)
+        .map(|(b, w)| w.gather(&b.positions))
+        .collect()
+}

@@ -64,12 +64,7 @@ pub fn welded_positions(
     t: f64,
     anim: Option<usize>,
 ) -> Vec<Vec<Point3<f64>>> {
-    let f = frames::evaluate(rig, pre, anim, 0, t);
-    f.bodies
-        .iter()
-        .zip(&pre.welded)
-        .map(|(b, w)| w.gather(&b.positions))
-        .collect()
+    frames::welded_positions(rig, pre, anim, t)
 }
 
 impl Loaded {
