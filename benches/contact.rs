@@ -87,6 +87,7 @@ fn breakdown(s: &Scene) -> (Vec<(&'static str, f64)>, usize, f64) {
         ("di. directions", col(|t| t.directions)),
         ("g. diffusion", col(|t| t.fields)),
         ("de. deformation", col(|t| t.deformation)),
+        ("s. factorizations", col(|t| t.factorization)),
         ("setup (normals, refit)", col(|t| t.setup)),
         ("wall", col(|t| t.wall)),
     ];

@@ -198,6 +198,8 @@ pub struct StageTimings {
     pub fields: f64,
     /// de.: profiles, bulge, volume, displacement.
     pub deformation: f64,
+    /// s.: numeric factorizations (part of p., di. and g.).
+    pub factorization: f64,
     /// Wall-clock time of the whole pass.
     pub wall: f64,
 }
@@ -255,6 +257,7 @@ fn add_timings(a: &StageTimings, b: &StageTimings) -> StageTimings {
         directions: a.directions + b.directions,
         fields: a.fields + b.fields,
         deformation: a.deformation + b.deformation,
+        factorization: a.factorization + b.factorization,
         wall: a.wall + b.wall,
     }
 }
@@ -486,6 +489,7 @@ impl ContactPass {
                     out.timings.directions += d.timings.directions;
                     out.timings.fields += d.timings.fields;
                     out.timings.deformation += d.timings.deformation;
+                    out.timings.factorization += d.timings.factorization;
                     out.positions.push(d.positions);
                     out.diagnostics.push(BodyDiagnostics {
                         u: d.u,

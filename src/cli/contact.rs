@@ -445,6 +445,8 @@ pub struct StageMs {
     pub fields: f64,
     /// de.: profiles, bulge, volume, displacement.
     pub deformation: f64,
+    /// s.: numeric factorizations (part of p., di. and g.).
+    pub factorization: f64,
     /// The whole pass.
     pub wall: f64,
 }
@@ -460,6 +462,7 @@ pub fn median_stages(timings: &[StageTimings]) -> StageMs {
         directions: m(|t| t.directions),
         fields: m(|t| t.fields),
         deformation: m(|t| t.deformation),
+        factorization: m(|t| t.factorization),
         wall: m(|t| t.wall),
     }
 }

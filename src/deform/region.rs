@@ -136,6 +136,8 @@ pub struct DeformTimings {
     pub fields: f64,
     /// Profiles, bulge map, volume, displacement.
     pub deformation: f64,
+    /// Numeric factorizations (inside the steps above; Table 1 column s.).
+    pub factorization: f64,
 }
 
 /// Counters and fallbacks of one region's deformation.
@@ -354,6 +356,7 @@ pub fn shape_region(
     out.zone = zone;
     out.stats = stats;
     out.timings = DeformTimings {
+        factorization: problem.factorization_seconds(),
         parametrization: t_param,
         directions: t_dir - t_param,
         fields: t_fields - t_dir,

@@ -71,6 +71,7 @@ impl RegionSolver {
             solver: self,
             cut,
             stiffness: None,
+            factor_seconds: std::cell::Cell::new(0.0),
         })
     }
 }
@@ -83,9 +84,20 @@ pub struct CutProblem<'a> {
     /// The cut mesh.
     pub cut: CutMesh,
     stiffness: Option<Factor>,
+    factor_seconds: std::cell::Cell<f64>,
 }
 
 impl CutProblem<'_> {
+    /// Seconds spent in numeric factorizations so far (the paper's Table 1 column s.).
+    pub fn factorization_seconds(&self) -> f64 {
+        self.factor_seconds.get()
+    }
+
+    fn add_factor_time(&self, start: std::time::Instant) {
+        self.factor_seconds
+            .set(self.factor_seconds.get() + start.elapsed().as_secs_f64());
+    }
+
     /// Vertices no Dirichlet node reaches (identity rows).
     pub fn unreached(&self) -> &[bool] {
         &self.cut.unreached
@@ -94,7 +106,9 @@ impl CutProblem<'_> {
     fn stiffness_factor(&mut self) -> Result<&Factor, HeatError> {
         if self.stiffness.is_none() {
             let slots = self.cut.stiffness_slots(&self.solver.pattern);
+            let start = std::time::Instant::now();
             self.stiffness = Some(self.solver.pattern.factor(&slots, "stiffness")?);
+            self.add_factor_time(start);
         }
         self.stiffness
             .as_ref()
@@ -126,7 +140,9 @@ impl CutProblem<'_> {
             return Err(HeatError::DegenerateRegion);
         }
         let slots = self.cut.heat_slots(&self.solver.pattern, t);
+        let start = std::time::Instant::now();
         let factor = self.solver.pattern.factor(&slots, "heat")?;
+        self.add_factor_time(start);
         let ones = vec![1.0; self.cut.dirichlet_count()];
         let mut b = vec![0.0; self.cut.vertex_count()];
         self.cut.apply_dirichlet(&mut b, &ones, t);
