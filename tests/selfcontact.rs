@@ -214,3 +214,26 @@ fn crease_distance_to_silhouette(
         .max()
         .unwrap_or(0)
 }
+
+/// Bad input to the self-contact pass: typed errors, never a panic.
+#[test]
+fn bad_input_gives_typed_errors() {
+    use contact_skin::selfcontact::pass::SelfPassError;
+    let l = load("bending_capsule", 31);
+    let pass = self_pass(&l);
+    let pose = l.rig.pose_at(Some(0), l.times[30]);
+    let mut nan = l.frame(30);
+    nan[0][7].y = f64::NAN;
+    assert!(matches!(
+        pass.run(&l.rig, &pose, &mut nan),
+        Err(SelfPassError::Fold { .. })
+    ));
+    let mut none: Vec<Vec<Point3<f64>>> = Vec::new();
+    assert!(matches!(
+        pass.run(&l.rig, &pose, &mut none),
+        Err(SelfPassError::Mismatch(_))
+    ));
+    let mut short = l.frame(30);
+    short[0].truncate(10);
+    assert!(pass.run(&l.rig, &pose, &mut short).is_err());
+}

@@ -52,6 +52,7 @@ pub struct SelfContactPass {
     folds: Vec<Fold>,
     params: FoldParams,
     triangles: Vec<Vec<[u32; 3]>>,
+    vertex_counts: Vec<usize>,
     passes: usize,
 }
 
@@ -120,6 +121,7 @@ impl SelfContactPass {
             folds,
             params,
             triangles,
+            vertex_counts: rest.iter().map(Vec::len).collect(),
             passes: DEFAULT_FOLD_PASSES,
         })
     }
@@ -156,6 +158,14 @@ impl SelfContactPass {
                 self.triangles.len(),
                 positions.len()
             )));
+        }
+        for (b, (p, &n)) in positions.iter().zip(&self.vertex_counts).enumerate() {
+            if p.len() != n {
+                return Err(SelfPassError::Mismatch(format!(
+                    "body {b}: {} positions, the rig has {n} welded vertices",
+                    p.len()
+                )));
+            }
         }
         let mut out = SelfPassOutput::default();
         for fold in self
