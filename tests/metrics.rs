@@ -918,3 +918,82 @@ fn non_finite_inputs_are_counted_and_never_produce_nan() {
     assert_eq!(WindingNumber::new(&[], &[]).query(&Point3::origin()), 0.0);
     assert_eq!(winding_number(&[], &[[0, 1, 2]], &Point3::origin()), 0.0);
 }
+
+/// `WindingNumber::refit` after a deformation agrees with a tree built from scratch on the new
+/// positions (both within the fast method's accuracy of the exact sum).
+#[test]
+fn refitted_winding_tree_matches_a_rebuilt_one() {
+    let s = icosphere_for_refit();
+    let mut tree = contact_skin::report::metrics::WindingNumber::new(&s.0, &s.1);
+    let moved: Vec<nalgebra::Point3<f64>> =
+        s.0.iter()
+            .map(|p| nalgebra::Point3::new(p.x * 1.3 + 0.2 * p.y * p.y, p.y * 0.8, p.z + 0.1 * p.x))
+            .collect();
+    assert!(tree.refit(&moved, &s.1));
+    let fresh = contact_skin::report::metrics::WindingNumber::new(&moved, &s.1);
+    let mut worst: f64 = 0.0;
+    for i in 0..2000 {
+        let t = i as f64 * 0.618_033_988_75;
+        let q = nalgebra::Point3::new(
+            1.6 * (t.sin()),
+            1.2 * ((2.0 * t).cos()),
+            1.4 * ((3.0 * t).sin()),
+        );
+        let exact = contact_skin::report::metrics::winding_number(&moved, &s.1, &q);
+        worst = worst.max((tree.query(&q) - exact).abs());
+        assert!((fresh.query(&q) - exact).abs() < 1e-2);
+    }
+    println!("refit: worst error against the exact sum {worst:.2e}");
+    assert!(worst < 1e-2);
+    let mut bad = moved.clone();
+    bad[0].x = f64::NAN;
+    assert!(!tree.refit(&bad, &s.1), "a NaN corner is refused");
+}
+
+/// A subdivided octahedron pushed onto the unit sphere (positions, triangles).
+fn icosphere_for_refit() -> (Vec<nalgebra::Point3<f64>>, Vec<[u32; 3]>) {
+    let mut p: Vec<nalgebra::Point3<f64>> = [
+        [1.0, 0.0, 0.0],
+        [-1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, -1.0, 0.0],
+        [0.0, 0.0, 1.0],
+        [0.0, 0.0, -1.0],
+    ]
+    .iter()
+    .map(|c| nalgebra::Point3::new(c[0], c[1], c[2]))
+    .collect();
+    let mut t: Vec<[u32; 3]> = vec![
+        [0, 2, 4],
+        [2, 1, 4],
+        [1, 3, 4],
+        [3, 0, 4],
+        [2, 0, 5],
+        [1, 2, 5],
+        [3, 1, 5],
+        [0, 3, 5],
+    ];
+    for _ in 0..4 {
+        let mut mid = std::collections::HashMap::new();
+        let mut next = Vec::new();
+        for tri in &t {
+            let mut m = [0u32; 3];
+            for k in 0..3 {
+                let (a, b) = (tri[k].min(tri[(k + 1) % 3]), tri[k].max(tri[(k + 1) % 3]));
+                m[k] = *mid.entry((a, b)).or_insert_with(|| {
+                    let c = nalgebra::Point3::from(
+                        (p[a as usize].coords + p[b as usize].coords).normalize(),
+                    );
+                    p.push(c);
+                    (p.len() - 1) as u32
+                });
+            }
+            next.push([tri[0], m[0], m[2]]);
+            next.push([m[0], tri[1], m[1]]);
+            next.push([m[2], m[1], tri[2]]);
+            next.push([m[0], m[1], m[2]]);
+        }
+        t = next;
+    }
+    (p, t)
+}

@@ -144,7 +144,7 @@ pub fn resolve_pair(
     b: SideFrame,
     params: &PairParams,
 ) -> Result<Option<Contact>, ContactError> {
-    resolve(a, b, params, false)
+    resolve(a, b, params, None)
 }
 
 /// [`resolve_pair`] for the two truncated working regions of one mesh (2021 Sec. 6: Sections
@@ -152,19 +152,25 @@ pub fn resolve_pair(
 /// both sides are parts of one mesh posed with the same positions (see
 /// [`crate::intersect::MeshIndex::self_contact_parts`]); face pairs sharing a vertex are not
 /// intersections.
+///
+/// `winding`: a winding-number tree of the whole mesh at the current positions (see
+/// [`crate::report::metrics::WindingNumber::refit`]); built here when `None`.
 pub fn resolve_self_pair(
     part1: SideFrame,
     part2: SideFrame,
     params: &PairParams,
+    winding: Option<&crate::report::metrics::WindingNumber>,
 ) -> Result<Option<Contact>, ContactError> {
-    resolve(part1, part2, params, true)
+    resolve(part1, part2, params, Some(winding))
 }
 
+/// `same_mesh`: `Some(tree)` for the two parts of one mesh (self-contact), with an optional
+/// prebuilt winding-number tree of the whole mesh.
 fn resolve(
     a: SideFrame,
     b: SideFrame,
     params: &PairParams,
-    same_mesh: bool,
+    same_mesh: Option<Option<&crate::report::metrics::WindingNumber>>,
 ) -> Result<Option<Contact>, ContactError> {
     for s in [&a, &b] {
         let (expected, got) = (s.mesh.positions().len(), s.normals.len());
@@ -173,7 +179,7 @@ fn resolve(
         }
     }
     let start = Instant::now();
-    let ints = if same_mesh {
+    let ints = if same_mesh.is_some() {
         Intersections::self_contact(a.mesh, b.mesh)?
     } else {
         Intersections::between(a.mesh, b.mesh)
@@ -185,8 +191,8 @@ fn resolve(
         IntersectionRegion::inside(&ints, Side::A, a.mesh)?,
         IntersectionRegion::inside(&ints, Side::B, b.mesh)?,
     ];
-    if same_mesh {
-        inside_by_winding([a, b], &ints, &mut regions);
+    if let Some(tree) = same_mesh {
+        inside_by_winding([a, b], &ints, tree, &mut regions);
     }
     let t_int = start.elapsed().as_secs_f64();
     let Some(dir_a) = pair_direction(a, b, &regions, params)? else {
@@ -298,12 +304,20 @@ fn pair_direction(
 fn inside_by_winding(
     parts: [SideFrame; 2],
     ints: &Intersections,
+    tree: Option<&crate::report::metrics::WindingNumber>,
     regions: &mut [IntersectionRegion; 2],
 ) {
     let positions = parts[0].mesh.positions();
     let triangles = parts[0].mesh.triangles();
     let h = crate::mesh::operators::mean_edge_length(positions, triangles);
-    let winding = crate::report::metrics::WindingNumber::new(positions, triangles);
+    let built;
+    let winding = match tree {
+        Some(t) => t,
+        None => {
+            built = crate::report::metrics::WindingNumber::new(positions, triangles);
+            &built
+        }
+    };
     for (k, (part, region)) in parts.iter().zip(regions.iter_mut()).enumerate() {
         let index = part.mesh.index();
         let is_inside = |v: u32| {

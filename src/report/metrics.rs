@@ -458,6 +458,7 @@ pub fn winding_number(positions: &[Point3<f64>], triangles: &[[u32; 3]], q: &Poi
 #[derive(Clone, Copy, Debug)]
 struct Moments {
     center: Point3<f64>,
+    area: f64,
     radius: f64,
     n: Vector3<f64>,
     m: Matrix3<f64>,
@@ -508,11 +509,50 @@ impl Moments {
         }
         Moments {
             center,
+            area,
             radius,
             n,
             m,
             c,
         }
+    }
+
+    /// The moments of the union of two nodes from theirs (parallel-axis shifts to the
+    /// area-weighted center of the union; the radius is an upper bound).
+    fn merge(a: &Moments, b: &Moments, node: &Node) -> Moments {
+        let area = a.area + b.area;
+        let weighted = a.center.coords * a.area + b.center.coords * b.area;
+        let center = if area > 0.0 && (weighted / area).iter().all(|x| x.is_finite()) {
+            Point3::from(weighted / area)
+        } else {
+            nalgebra::center(&node.min, &node.max)
+        };
+        let mut out = Moments {
+            center,
+            area,
+            radius: 0.0,
+            n: a.n + b.n,
+            m: Matrix3::zeros(),
+            c: [[Vector3::zeros(); 3]; 3],
+        };
+        for child in [a, b] {
+            let delta = child.center - center;
+            // ∫ (x - p) nᵀ = M + δ Nᵀ; ∫ (x - p)_j (x - p)_k n = C_jk + δ_k Σ_j + δ_j Σ_k + δ_j δ_k N
+            // with Σ_j = ∫ (x - p̃)_j n = row j of M.
+            out.m += child.m + delta * child.n.transpose();
+            for j in 0..3 {
+                let row_j: Vector3<f64> = child.m.row(j).transpose();
+                for k in 0..3 {
+                    let row_k: Vector3<f64> = child.m.row(k).transpose();
+                    out.c[j][k] += child.c[j][k]
+                        + row_j * delta[k]
+                        + row_k * delta[j]
+                        + child.n * (delta[j] * delta[k]);
+                }
+            }
+            out.radius = out.radius.max(child.radius + delta.norm());
+        }
+        out
     }
 
     /// `4π ×` the node's winding number at `q` by its second-order Taylor expansion about the
@@ -600,6 +640,52 @@ impl WindingNumber {
             beta,
             skipped,
         }
+    }
+
+    /// Updates the tree to new `positions` of the same `triangles` (same topology), in
+    /// `O(faces)`: the split of the faces is kept, boxes and moments are recomputed bottom-up
+    /// (leaves exactly, inner nodes by merging their children's moments). Queries stay within
+    /// the same accuracy (the node radii become upper bounds, so slightly more of the tree is
+    /// evaluated exactly). Returns `false`, leaving the tree unchanged, when a corner is not
+    /// finite or the triangles do not match (rebuild with [`WindingNumber::new`] then).
+    pub fn refit(&mut self, positions: &[Point3<f64>], triangles: &[[u32; 3]]) -> bool {
+        let mut tris = Vec::with_capacity(self.bvh.tris.len());
+        for &f in &self.bvh.faces {
+            match triangles
+                .get(f as usize)
+                .and_then(|t| corners(positions, t))
+            {
+                Some(c) => tris.push(c),
+                None => return false,
+            }
+        }
+        self.bvh.tris = tris;
+        for i in (0..self.bvh.nodes.len()).rev() {
+            let node = self.bvh.nodes[i];
+            if node.is_leaf() {
+                let (mut lo, mut hi) = (
+                    Point3::from(Vector3::repeat(f64::INFINITY)),
+                    Point3::from(Vector3::repeat(f64::NEG_INFINITY)),
+                );
+                for t in &self.bvh.tris[node.slots()] {
+                    for p in t {
+                        lo = lo.inf(p);
+                        hi = hi.sup(p);
+                    }
+                }
+                self.bvh.nodes[i].min = lo;
+                self.bvh.nodes[i].max = hi;
+                self.moments[i] = Moments::of(&self.bvh.tris, &self.bvh.nodes[i]);
+            } else {
+                let (l, r) = (i + 1, node.right as usize);
+                let (a, b) = (self.bvh.nodes[l], self.bvh.nodes[r]);
+                self.bvh.nodes[i].min = a.min.inf(&b.min);
+                self.bvh.nodes[i].max = a.max.sup(&b.max);
+                self.moments[i] =
+                    Moments::merge(&self.moments[l], &self.moments[r], &self.bvh.nodes[i]);
+            }
+        }
+        true
     }
 
     /// Faces left out because of an out-of-range index or a non-finite corner.

@@ -60,6 +60,8 @@ pub struct CreaseInput<'a> {
     pub direction: Vector3<f64>,
     /// Vertices of intersecting faces.
     pub intersecting: &'a [u32],
+    /// The precomputed edges of `faces` (recomputed when `None`).
+    pub topology: Option<&'a CreaseTopology>,
 }
 
 /// The partition of the shared region.
@@ -164,8 +166,62 @@ struct Edge {
     dual: f64,
 }
 
+/// The edges of the faces of `W1 ∪ W2` (topology only: precomputed once per joint pair).
+#[derive(Clone, Debug, Default)]
+pub struct CreaseTopology {
+    edges: Vec<[u32; 2]>,
+    /// Per face of the input list: its three edges, in corner order `(k, k + 1)`.
+    face_edges: Vec<[u32; 3]>,
+}
+
+impl CreaseTopology {
+    /// The edges of `faces` (ids into `triangles`), sorted.
+    pub fn new(triangles: &[[u32; 3]], faces: &[u32]) -> Self {
+        let key = |a: u32, b: u32| [a.min(b), a.max(b)];
+        let mut edges: Vec<[u32; 2]> = faces
+            .iter()
+            .flat_map(|&f| {
+                let t = triangles[f as usize];
+                (0..3).map(move |k| key(t[k], t[(k + 1) % 3]))
+            })
+            .collect();
+        edges.sort_unstable();
+        edges.dedup();
+        let id = |e: [u32; 2]| edges.binary_search(&e).map_or(0, |i| i as u32);
+        let face_edges = faces
+            .iter()
+            .map(|&f| {
+                let t = triangles[f as usize];
+                std::array::from_fn(|k| id(key(t[k], t[(k + 1) % 3])))
+            })
+            .collect();
+        Self { edges, face_edges }
+    }
+}
+
 /// Edges of the faces of `W1 ∪ W2`, each with its barycentric dual length.
 fn region_edges(input: &CreaseInput) -> Vec<Edge> {
+    if let Some(topo) = input
+        .topology
+        .filter(|t| t.face_edges.len() == input.faces.len())
+    {
+        let mut dual = vec![0.0; topo.edges.len()];
+        for (&f, fe) in input.faces.iter().zip(&topo.face_edges) {
+            let t = input.triangles[f as usize];
+            let p = t.map(|v| input.positions[v as usize].coords);
+            let centroid = (p[0] + p[1] + p[2]) / 3.0;
+            for k in 0..3 {
+                let mid = (p[k] + p[(k + 1) % 3]) * 0.5;
+                dual[fe[k] as usize] += (centroid - mid).norm();
+            }
+        }
+        return topo
+            .edges
+            .iter()
+            .zip(dual)
+            .map(|(&ends, dual)| Edge { ends, dual })
+            .collect();
+    }
     let mut map: std::collections::BTreeMap<(u32, u32), f64> = std::collections::BTreeMap::new();
     for &f in input.faces {
         let t = input.triangles[f as usize];

@@ -10,7 +10,7 @@
 //! that was cut away); `p' = β p'_1 + (1 - β) p'_2` with one bulge height `h_v` solved on the
 //! blended `P` and `Q` (else the indentation inside `R` is compensated twice).
 
-use super::crease::{crease_cut, Crease, CreaseInput, CreaseParams};
+use super::crease::{crease_cut, Crease, CreaseInput, CreaseParams, CreaseTopology};
 use super::regions::PairRegions;
 use crate::contact::{
     resolve_self_pair, Contact, ContactSide, DirectionMode, PairParams, SideFrame,
@@ -80,6 +80,8 @@ pub struct FoldPre {
     detect: [MeshIndex; 2],
     faces: Vec<u32>,
     closed: bool,
+    winding: crate::report::metrics::WindingNumber,
+    topology: CreaseTopology,
 }
 
 /// Time per step of one fold, in seconds.
@@ -152,6 +154,8 @@ impl FoldPre {
         let labels = rest_labels(triangles, &regions);
         let detect = MeshIndex::self_contact_parts(rest, triangles, &labels)?;
         let closed = crate::deform::WorkingRegion::whole(triangles, n)?.closed;
+        let winding = crate::report::metrics::WindingNumber::new(rest, triangles);
+        let topology = CreaseTopology::new(triangles, &faces);
         Ok(Self {
             regions,
             w1,
@@ -160,6 +164,8 @@ impl FoldPre {
             detect,
             faces,
             closed,
+            winding,
+            topology,
         })
     }
 }
@@ -225,6 +231,7 @@ pub fn resolve_fold(
             beta: &r.beta,
             direction,
             intersecting: &intersecting,
+            topology: Some(&pre.topology),
         },
         &params.crease,
     )?;
@@ -238,6 +245,8 @@ pub fn resolve_fold(
         direction: DirectionMode::Fixed(direction),
     };
     let t0 = clock.elapsed().as_secs_f64();
+    let mut winding = pre.winding.clone();
+    let tree = winding.refit(positions, triangles).then_some(&winding);
     let contact = resolve_self_pair(
         SideFrame {
             mesh: &posed[0],
@@ -248,6 +257,7 @@ pub fn resolve_fold(
             normals,
         },
         &pair,
+        tree,
     )?;
     timings.contact = clock.elapsed().as_secs_f64() - t0;
     let Some(contact) = contact else {
