@@ -353,3 +353,39 @@ fn chord_penetration_shrinks_under_refinement() {
         "chord depth must shrink: {depth_abs:?}"
     );
 }
+
+/// Sec. 4.1: a user direction, constant or keyframed, replaces Eq. 2 (outward for the first
+/// body of the pair) and is sampled at the frame's time.
+#[test]
+fn keyframed_user_direction_drives_the_contact() {
+    use contact_skin::pass::{DirectionTrack, PairOverride};
+    use nalgebra::Vector3;
+    let l = load("capsule_pair", 31);
+    let (t0, t1) = (l.times[20], l.times[30]);
+    let track = DirectionTrack::keyed(vec![
+        (t0, Vector3::new(0.0, 1.0, 0.0)),
+        (t1, Vector3::new(0.3, 1.0, 0.0)),
+    ])
+    .expect("valid keys");
+    let over = PairOverride {
+        bodies: [0, 1],
+        tau: None,
+        direction: Some(track.clone()),
+    };
+    let pass = l
+        .pass(object_params(2, &[1.0], 0.0), vec![over])
+        .with_passes(1);
+    for f in [20, 25, 30] {
+        let t = l.times[f];
+        let out = pass.run_at(&l.frame(f), t).expect("pass runs");
+        let c = &out.contacts[0];
+        let k = usize::from(c.bodies[0] != 0);
+        let d = c.contact.sides[k].direction;
+        assert!(
+            (d - track.at(t)).norm() < 1e-12,
+            "frame {f}: {d:?} vs {:?}",
+            track.at(t)
+        );
+        assert!(l.penetration(&out.positions).vertices == 0);
+    }
+}
