@@ -582,7 +582,7 @@ fn blend_direction(
 }
 
 /// Weight of the global slope in each point's estimate, relative to the mean denominator
-/// (see [`slope_estimates`]).
+/// (see the slope estimation in this module).
 pub const SLOPE_REGULARIZATION: f64 = 0.25;
 
 /// Slope estimates at the cut points (Sec. 5.3 with the corrected anchor of `PIPELINE.md`):

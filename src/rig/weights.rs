@@ -36,7 +36,7 @@ impl SkinWeights {
     }
 
     /// Appends the row of one vertex. The influences must already be positive, merged per
-    /// joint, sorted by joint and normalized (see [`normalize_row`]).
+    /// joint, sorted by joint and normalized (see `normalize_row`).
     pub fn push_row(&mut self, row: &[(u16, f64)]) {
         for &(j, w) in row {
             self.joints.push(j);
