@@ -24,9 +24,9 @@ enum Command {
     /// Describe a rig: meshes, vertices, joints, animations, welded seams, problems found, its
     /// contact configuration resolved (objects and pairs) and the joint pairs of self-contact.
     Info(info::Args),
-    /// Pose a rig through an animation, resolve the contacts between its objects and the
-    /// joints folding into themselves (unless --no-contact) and write the frames (OBJ per
-    /// frame, or one baked glb).
+    /// Pose a rig through an animation, resolve the contacts between its objects (unless
+    /// --no-contact) and, with --self-contact, the joints folding into themselves, and write
+    /// the frames (OBJ per frame, or one baked glb).
     Pose(pose::Args),
     /// Write the procedural test scenes (bending capsule, finger, mouth, ...) as glb files.
     Generate(GenerateArgs),
