@@ -8,7 +8,9 @@ use contact_skin::intersect::{
     QuadratureRule, Ray, RayHit, Side, Silhouette,
 };
 use nalgebra::{Point3, Rotation3, Unit, Vector3};
-use std::collections::HashMap;
+
+#[path = "common/meshes.rs"]
+mod meshes;
 
 type Mesh = (Vec<Point3<f64>>, Vec<[u32; 3]>);
 
@@ -73,70 +75,13 @@ fn orient_outward(mut m: Mesh) -> Mesh {
     m
 }
 
-/// Icosphere with `subdiv` midpoint subdivisions (20 * 4^subdiv faces), vertices on the sphere.
+/// Icosphere with `subdiv` midpoint subdivisions (20 * 4^subdiv faces), vertices on the sphere
+/// of `radius` about `center`, turned by `rot` (the shared generator of
+/// `tests/common/meshes.rs`).
 fn icosphere(subdiv: u32, radius: f64, center: Point3<f64>, rot: &Rotation3<f64>) -> Mesh {
-    let t = (1.0 + 5f64.sqrt()) / 2.0;
-    let mut dirs: Vec<Vector3<f64>> = [
-        [-1., t, 0.],
-        [1., t, 0.],
-        [-1., -t, 0.],
-        [1., -t, 0.],
-        [0., -1., t],
-        [0., 1., t],
-        [0., -1., -t],
-        [0., 1., -t],
-        [t, 0., -1.],
-        [t, 0., 1.],
-        [-t, 0., -1.],
-        [-t, 0., 1.],
-    ]
-    .iter()
-    .map(|v| Vector3::new(v[0], v[1], v[2]).normalize())
-    .collect();
-    let mut tris: Vec<[u32; 3]> = vec![
-        [0, 11, 5],
-        [0, 5, 1],
-        [0, 1, 7],
-        [0, 7, 10],
-        [0, 10, 11],
-        [1, 5, 9],
-        [5, 11, 4],
-        [11, 10, 2],
-        [10, 7, 6],
-        [7, 1, 8],
-        [3, 9, 4],
-        [3, 4, 2],
-        [3, 2, 6],
-        [3, 6, 8],
-        [3, 8, 9],
-        [4, 9, 5],
-        [2, 4, 11],
-        [6, 2, 10],
-        [8, 6, 7],
-        [9, 8, 1],
-    ];
-    for _ in 0..subdiv {
-        let mut mid: HashMap<(u32, u32), u32> = HashMap::new();
-        let mut next = Vec::with_capacity(tris.len() * 4);
-        for t in &tris {
-            let m: [u32; 3] = std::array::from_fn(|k| {
-                let (a, b) = (t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3]));
-                *mid.entry((a, b)).or_insert_with(|| {
-                    dirs.push((dirs[a as usize] + dirs[b as usize]).normalize());
-                    dirs.len() as u32 - 1
-                })
-            });
-            next.extend([
-                [t[0], m[0], m[2]],
-                [t[1], m[1], m[0]],
-                [t[2], m[2], m[1]],
-                [m[0], m[1], m[2]],
-            ]);
-        }
-        tris = next;
-    }
-    let pos = dirs.iter().map(|d| center + rot * d * radius).collect();
-    orient_outward((pos, tris))
+    let m = meshes::icosphere(subdiv as usize);
+    let pos = m.positions.iter().map(|p| center + rot * p.coords * radius).collect();
+    (pos, m.triangles)
 }
 
 /// UV sphere with the given polar angles for its rings (poles added); `ring_override` replaces

@@ -6,7 +6,6 @@
 //! `cargo test --release --test metrics -- --nocapture` prints the measured accuracy and speed
 //! of the fast winding number.
 
-use std::collections::HashMap;
 use std::time::Instant;
 
 use contact_skin::mesh::operators::{mean_edge_length, vertex_normals, NormalWeighting};
@@ -22,6 +21,9 @@ use parry3d_f64::math::Vector as PVec;
 use parry3d_f64::query::PointQuery;
 use parry3d_f64::shape::Triangle as PTriangle;
 use rayon::prelude::*;
+
+#[path = "common/meshes.rs"]
+mod meshes;
 
 type Mesh = (Vec<Point3<f64>>, Vec<[u32; 3]>);
 
@@ -69,67 +71,12 @@ impl Rng {
     }
 }
 
-/// Icosphere: `level` midpoint subdivisions of an icosahedron (20·4^level faces), outward CCW.
+/// Icosphere: `level` midpoint subdivisions of an icosahedron (20·4^level faces), outward CCW,
+/// scaled to `radius` about `center` (the shared generator of `tests/common/meshes.rs`).
 fn icosphere(level: u32, radius: f64, center: Point3<f64>) -> Mesh {
-    let t = (1.0 + 5f64.sqrt()) / 2.0;
-    let mut dirs: Vec<Vector3<f64>> = [
-        [-1.0, t, 0.0],
-        [1.0, t, 0.0],
-        [-1.0, -t, 0.0],
-        [1.0, -t, 0.0],
-        [0.0, -1.0, t],
-        [0.0, 1.0, t],
-        [0.0, -1.0, -t],
-        [0.0, 1.0, -t],
-        [t, 0.0, -1.0],
-        [t, 0.0, 1.0],
-        [-t, 0.0, -1.0],
-        [-t, 0.0, 1.0],
-    ]
-    .iter()
-    .map(|c| Vector3::new(c[0], c[1], c[2]).normalize())
-    .collect();
-    let mut tris: Vec<[u32; 3]> = vec![
-        [0, 11, 5],
-        [0, 5, 1],
-        [0, 1, 7],
-        [0, 7, 10],
-        [0, 10, 11],
-        [1, 5, 9],
-        [5, 11, 4],
-        [11, 10, 2],
-        [10, 7, 6],
-        [7, 1, 8],
-        [3, 9, 4],
-        [3, 4, 2],
-        [3, 2, 6],
-        [3, 6, 8],
-        [3, 8, 9],
-        [4, 9, 5],
-        [2, 4, 11],
-        [6, 2, 10],
-        [8, 6, 7],
-        [9, 8, 1],
-    ];
-    for _ in 0..level {
-        let mut mid: HashMap<(u32, u32), u32> = HashMap::new();
-        let mut next = Vec::with_capacity(tris.len() * 4);
-        let mut midpoint = |a: u32, b: u32, dirs: &mut Vec<Vector3<f64>>| {
-            *mid.entry((a.min(b), a.max(b))).or_insert_with(|| {
-                dirs.push((dirs[a as usize] + dirs[b as usize]).normalize());
-                dirs.len() as u32 - 1
-            })
-        };
-        for [a, b, c] in tris {
-            let ab = midpoint(a, b, &mut dirs);
-            let bc = midpoint(b, c, &mut dirs);
-            let ca = midpoint(c, a, &mut dirs);
-            next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
-        }
-        tris = next;
-    }
-    let pos = dirs.iter().map(|d| center + d * radius).collect();
-    (pos, tris)
+    let m = meshes::icosphere(level as usize);
+    let pos = m.positions.iter().map(|p| center + p.coords * radius).collect();
+    (pos, m.triangles)
 }
 
 /// Capsule along z: a cylinder of half-length `half` capped by hemispheres of `radius`;
@@ -923,7 +870,7 @@ fn non_finite_inputs_are_counted_and_never_produce_nan() {
 /// positions (both within the fast method's accuracy of the exact sum).
 #[test]
 fn refitted_winding_tree_matches_a_rebuilt_one() {
-    let s = icosphere_for_refit();
+    let s = icosphere(4, 1.0, nalgebra::Point3::origin());
     let mut tree = contact_skin::report::metrics::WindingNumber::new(&s.0, &s.1);
     let moved: Vec<nalgebra::Point3<f64>> =
         s.0.iter()
@@ -950,50 +897,3 @@ fn refitted_winding_tree_matches_a_rebuilt_one() {
     assert!(!tree.refit(&bad, &s.1), "a NaN corner is refused");
 }
 
-/// A subdivided octahedron pushed onto the unit sphere (positions, triangles).
-fn icosphere_for_refit() -> (Vec<nalgebra::Point3<f64>>, Vec<[u32; 3]>) {
-    let mut p: Vec<nalgebra::Point3<f64>> = [
-        [1.0, 0.0, 0.0],
-        [-1.0, 0.0, 0.0],
-        [0.0, 1.0, 0.0],
-        [0.0, -1.0, 0.0],
-        [0.0, 0.0, 1.0],
-        [0.0, 0.0, -1.0],
-    ]
-    .iter()
-    .map(|c| nalgebra::Point3::new(c[0], c[1], c[2]))
-    .collect();
-    let mut t: Vec<[u32; 3]> = vec![
-        [0, 2, 4],
-        [2, 1, 4],
-        [1, 3, 4],
-        [3, 0, 4],
-        [2, 0, 5],
-        [1, 2, 5],
-        [3, 1, 5],
-        [0, 3, 5],
-    ];
-    for _ in 0..4 {
-        let mut mid = std::collections::HashMap::new();
-        let mut next = Vec::new();
-        for tri in &t {
-            let mut m = [0u32; 3];
-            for k in 0..3 {
-                let (a, b) = (tri[k].min(tri[(k + 1) % 3]), tri[k].max(tri[(k + 1) % 3]));
-                m[k] = *mid.entry((a, b)).or_insert_with(|| {
-                    let c = nalgebra::Point3::from(
-                        (p[a as usize].coords + p[b as usize].coords).normalize(),
-                    );
-                    p.push(c);
-                    (p.len() - 1) as u32
-                });
-            }
-            next.push([tri[0], m[0], m[2]]);
-            next.push([m[0], tri[1], m[1]]);
-            next.push([m[2], m[1], tri[2]]);
-            next.push([m[0], m[1], m[2]]);
-        }
-        t = next;
-    }
-    (p, t)
-}
