@@ -100,11 +100,17 @@ pub fn welded_positions(
     animation: Option<usize>,
     t: f64,
 ) -> Vec<Vec<nalgebra::Point3<f64>>> {
-    let frame = evaluate(rig, pre, animation, 0, t);
-    frame
-        .bodies
-        .iter()
-        .zip(&pre.welded)
-        .map(|(b, w)| w.gather(&b.positions))
-        .collect()
+    evaluate(rig, pre, animation, 0, t).welded(pre)
+}
+
+impl Frame {
+    /// Welded positions of every body (each welded vertex takes its representative file
+    /// vertex's position).
+    pub fn welded(&self, pre: &Precomputed) -> Vec<Vec<nalgebra::Point3<f64>>> {
+        self.bodies
+            .iter()
+            .zip(&pre.welded)
+            .map(|(b, w)| w.gather(&b.positions))
+            .collect()
+    }
 }

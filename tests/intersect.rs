@@ -80,7 +80,11 @@ fn orient_outward(mut m: Mesh) -> Mesh {
 /// `tests/common/meshes.rs`).
 fn icosphere(subdiv: u32, radius: f64, center: Point3<f64>, rot: &Rotation3<f64>) -> Mesh {
     let m = meshes::icosphere(subdiv as usize);
-    let pos = m.positions.iter().map(|p| center + rot * p.coords * radius).collect();
+    let pos = m
+        .positions
+        .iter()
+        .map(|p| center + rot * p.coords * radius)
+        .collect();
     (pos, m.triangles)
 }
 

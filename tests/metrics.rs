@@ -75,7 +75,11 @@ impl Rng {
 /// scaled to `radius` about `center` (the shared generator of `tests/common/meshes.rs`).
 fn icosphere(level: u32, radius: f64, center: Point3<f64>) -> Mesh {
     let m = meshes::icosphere(level as usize);
-    let pos = m.positions.iter().map(|p| center + p.coords * radius).collect();
+    let pos = m
+        .positions
+        .iter()
+        .map(|p| center + p.coords * radius)
+        .collect();
     (pos, m.triangles)
 }
 
@@ -896,4 +900,3 @@ fn refitted_winding_tree_matches_a_rebuilt_one() {
     bad[0].x = f64::NAN;
     assert!(!tree.refit(&bad, &s.1), "a NaN corner is refused");
 }
-

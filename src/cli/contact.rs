@@ -63,7 +63,7 @@ impl ContactRun {
         let used = found.as_ref().map(|c| c.file.clone());
         let cfg = found.unwrap_or_default();
         let (params, overrides, file_passes) = cfg.resolve(rig, &pre.welded)?;
-        let rest = rest_welded(rig, pre);
+        let rest = frames::welded_positions(rig, pre, None, 0.0);
         let bodies: Vec<RestBody> = rest
             .iter()
             .zip(&pre.welded)
@@ -131,21 +131,6 @@ impl SelfRun {
     }
 }
 
-/// Welded positions of every body at the rest pose (skinned with `pre`'s method).
-pub fn rest_welded(rig: &Rig, pre: &Precomputed) -> Vec<Vec<Point3<f64>>> {
-    welded(&frames::evaluate(rig, pre, None, 0, 0.0), pre)
-}
-
-/// Welded positions of every body of a frame.
-pub fn welded(frame: &Frame, pre: &Precomputed) -> Vec<Vec<Point3<f64>>> {
-    frame
-        .bodies
-        .iter()
-        .zip(&pre.welded)
-        .map(|(b, w)| w.gather(&b.positions))
-        .collect()
-}
-
 /// One frame through the contact passes.
 pub struct ContactFrame {
     /// The frame with the passes' positions on every file vertex.
@@ -195,7 +180,7 @@ pub fn run_frame(
     t: f64,
 ) -> Result<ContactFrame, String> {
     let input = frames::evaluate(rig, pre, animation, index, t);
-    let before = welded(&input, pre);
+    let before = input.welded(pre);
     let output = run
         .pass
         .run_at(&before, t)

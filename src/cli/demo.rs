@@ -252,16 +252,7 @@ fn run_contact(
     }
     let pre = Precomputed::new(rig, Method::Lbs);
     let run = ContactRun::new(rig_path, rig, &pre, None, None, Some(true))?;
-    let times = frames::sample_times(rig, Some(0), a.frames);
-    let timed: Vec<(ContactFrame, f64)> = times
-        .par_iter()
-        .enumerate()
-        .map(|(i, &t)| {
-            let s = Instant::now();
-            let f = contact::run_frame(rig, &pre, &run, Some(0), i, t)?;
-            Ok((f, s.elapsed().as_secs_f64() * 1e3))
-        })
-        .collect::<Result<_, String>>()?;
+    let timed = timed_frames(a, rig, &pre, &run)?;
     let dir = a.out.join(scene.name());
     let anim = rig.animations[0].name.clone().unwrap_or_else(|| "0".into());
     let glb_path = dir.join(format!("{anim}.contact.glb"));
@@ -282,7 +273,7 @@ fn run_contact(
 
 /// Frames in contact, penetration at the deepest input frame, volume error and timings.
 fn measure(rig: &Rig, pre: &Precomputed, timed: &[(ContactFrame, f64)]) -> ContactResult {
-    let rest = contact::rest_welded(rig, pre);
+    let rest = frames::welded_positions(rig, pre, None, 0.0);
     let tris: Vec<&[[u32; 3]]> = pre.welded.iter().map(|w| w.triangles.as_slice()).collect();
     let h = rest
         .iter()
@@ -290,10 +281,8 @@ fn measure(rig: &Rig, pre: &Precomputed, timed: &[(ContactFrame, f64)]) -> Conta
         .map(|(p, t)| mean_edge_length(p, t))
         .sum::<f64>()
         / rest.len().max(1) as f64;
-    let inputs: Vec<Vec<Vec<Point3<f64>>>> = timed
-        .iter()
-        .map(|(f, _)| contact::welded(&f.input, pre))
-        .collect();
+    let inputs: Vec<Vec<Vec<Point3<f64>>>> =
+        timed.iter().map(|(f, _)| f.input.welded(pre)).collect();
     let before: Vec<PenetrationRow> = inputs
         .par_iter()
         .map(|p| penetration(p, &tris, h))
@@ -367,6 +356,25 @@ fn volume_error(input: &[Vec<Point3<f64>>], out: &ContactFrame, tris: &[&[[u32; 
 /// The self-contact pass on a single-body scene (first animation, `method` input): OBJ frames
 /// and a baked glb of the result, frames with a fold, penetration before and after at the
 /// deepest input frame, volume error, inverted faces and timings. `None` without animation.
+/// Every frame of the first animation through the contact passes, in parallel, with its time
+/// in milliseconds.
+fn timed_frames(
+    a: &Args,
+    rig: &Rig,
+    pre: &Precomputed,
+    run: &ContactRun,
+) -> Result<Vec<(ContactFrame, f64)>, String> {
+    frames::sample_times(rig, Some(0), a.frames)
+        .par_iter()
+        .enumerate()
+        .map(|(i, &t)| {
+            let s = Instant::now();
+            let f = contact::run_frame(rig, pre, run, Some(0), i, t)?;
+            Ok((f, s.elapsed().as_secs_f64() * 1e3))
+        })
+        .collect()
+}
+
 fn run_self_contact(
     a: &Args,
     scene: Scene,
@@ -379,16 +387,7 @@ fn run_self_contact(
     }
     let pre = Precomputed::new(rig, method);
     let run = ContactRun::new(rig_path, rig, &pre, None, None, Some(true))?;
-    let times = frames::sample_times(rig, Some(0), a.frames);
-    let timed: Vec<(ContactFrame, f64)> = times
-        .par_iter()
-        .enumerate()
-        .map(|(i, &t)| {
-            let s = Instant::now();
-            let f = contact::run_frame(rig, &pre, &run, Some(0), i, t)?;
-            Ok((f, s.elapsed().as_secs_f64() * 1e3))
-        })
-        .collect::<Result<_, String>>()?;
+    let timed = timed_frames(a, rig, &pre, &run)?;
     let dir = a.out.join(scene.name());
     let anim = rig.animations[0].name.clone().unwrap_or_else(|| "0".into());
     let suffix = if method == Method::Lbs {
@@ -407,7 +406,7 @@ fn run_self_contact(
         &posed,
         &format!("demo, {method} + self-contact"),
     )?;
-    let rest = contact::rest_welded(rig, &pre);
+    let rest = frames::welded_positions(rig, &pre, None, 0.0);
     let tris: Vec<&[[u32; 3]]> = pre.welded.iter().map(|w| w.triangles.as_slice()).collect();
     let h = rest
         .iter()
@@ -415,10 +414,8 @@ fn run_self_contact(
         .map(|(p, t)| mean_edge_length(p, t))
         .sum::<f64>()
         / rest.len().max(1) as f64;
-    let inputs: Vec<Vec<Vec<Point3<f64>>>> = timed
-        .iter()
-        .map(|(f, _)| contact::welded(&f.input, &pre))
-        .collect();
+    let inputs: Vec<Vec<Vec<Point3<f64>>>> =
+        timed.iter().map(|(f, _)| f.input.welded(&pre)).collect();
     let before: Vec<PenetrationRow> = inputs
         .par_iter()
         .map(|p| self_penetration(p, &tris, h))

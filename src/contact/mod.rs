@@ -144,7 +144,7 @@ pub fn resolve_pair(
     b: SideFrame,
     params: &PairParams,
 ) -> Result<Option<Contact>, ContactError> {
-    resolve(a, b, params, None)
+    resolve(a, b, params, Surfaces::Separate)
 }
 
 /// [`resolve_pair`] for the two truncated working regions of one mesh (2021 Sec. 6: Sections
@@ -161,16 +161,23 @@ pub fn resolve_self_pair(
     params: &PairParams,
     winding: Option<&crate::report::metrics::WindingNumber>,
 ) -> Result<Option<Contact>, ContactError> {
-    resolve(part1, part2, params, Some(winding))
+    resolve(part1, part2, params, Surfaces::PartsOfOneMesh(winding))
 }
 
-/// `same_mesh`: `Some(tree)` for the two parts of one mesh (self-contact), with an optional
-/// prebuilt winding-number tree of the whole mesh.
+/// What the two sides of a contact are.
+#[derive(Clone, Copy)]
+enum Surfaces<'w> {
+    /// Two separate closed surfaces.
+    Separate,
+    /// Two parts of one closed mesh, with an optional winding-number tree of the whole mesh.
+    PartsOfOneMesh(Option<&'w crate::report::metrics::WindingNumber>),
+}
+
 fn resolve(
     a: SideFrame,
     b: SideFrame,
     params: &PairParams,
-    same_mesh: Option<Option<&crate::report::metrics::WindingNumber>>,
+    surfaces: Surfaces,
 ) -> Result<Option<Contact>, ContactError> {
     for s in [&a, &b] {
         let (expected, got) = (s.mesh.positions().len(), s.normals.len());
@@ -179,10 +186,9 @@ fn resolve(
         }
     }
     let start = Instant::now();
-    let ints = if same_mesh.is_some() {
-        Intersections::self_contact(a.mesh, b.mesh)?
-    } else {
-        Intersections::between(a.mesh, b.mesh)
+    let ints = match surfaces {
+        Surfaces::PartsOfOneMesh(_) => Intersections::self_contact(a.mesh, b.mesh)?,
+        Surfaces::Separate => Intersections::between(a.mesh, b.mesh),
     };
     if ints.is_empty() || curve_length(&ints) <= TOUCH_TOLERANCE * reach_of(a.mesh, b.mesh) {
         return Ok(None);
@@ -191,7 +197,7 @@ fn resolve(
         IntersectionRegion::inside(&ints, Side::A, a.mesh)?,
         IntersectionRegion::inside(&ints, Side::B, b.mesh)?,
     ];
-    if let Some(tree) = same_mesh {
+    if let Surfaces::PartsOfOneMesh(tree) = surfaces {
         inside_by_winding([a, b], &ints, tree, &mut regions);
     }
     let t_int = start.elapsed().as_secs_f64();

@@ -86,7 +86,7 @@ impl WorkingRegion {
                 *slot = l as u32;
             }
         }
-        let closed = !region.border.iter().any(|&b| b);
+        let closed = region.is_closed();
         Ok(Self {
             solver: RegionSolver::new(region)?,
             local_of,
@@ -330,6 +330,8 @@ pub fn shape_region(
 
     let zone_local: Vec<bool> = boundary.inside.clone();
     let shape = Shape {
+        positions: &local_pos,
+        edge_length: problem.cut.mean_edge_length,
         u: &u,
         a: &a,
         s: &s,
@@ -651,6 +653,9 @@ fn slope_estimates(
 
 /// The per-vertex fields the displacement needs (local indices).
 struct Shape<'a> {
+    /// Region positions (local indices) and mean edge length of this frame.
+    positions: &'a [Point3<f64>],
+    edge_length: f64,
     u: &'a [f64],
     a: &'a [f64],
     s: &'a [f64],
@@ -692,7 +697,7 @@ fn displace(
         deformable.push((l, t));
     }
     stats.deformed_vertices = deformable.len();
-    let eta = bulge_map(wr, frame, params, &deformable);
+    let eta = bulge_map(wr, frame, params, shape, &deformable);
     for (&(l, _), e) in deformable.iter().zip(&eta) {
         let v = region.vertices[l] as usize;
         bulge_dir[v] *= *e;
@@ -756,11 +761,12 @@ fn bulge_map(
     wr: &WorkingRegion,
     frame: &RegionFrame,
     params: &DeformParams,
+    shape: &Shape,
     deformable: &[(usize, f64)],
 ) -> Vec<f64> {
     let region = wr.region();
-    let local_pos = region.gather(frame.positions);
-    let area = zone_areas(region, &local_pos, frame.contacts, &wr.local_of);
+    let local_pos = shape.positions;
+    let area = zone_areas(region, local_pos, frame.contacts, &wr.local_of);
     let mut samples = Vec::new();
     for c in frame.contacts {
         for &v in &c.zone.vertices {
@@ -779,7 +785,7 @@ fn bulge_map(
         }
     }
     let points: Vec<Point3<f64>> = deformable.iter().map(|&(l, _)| local_pos[l]).collect();
-    let h = crate::mesh::operators::mean_edge_length(&local_pos, &region.triangles);
+    let h = shape.edge_length;
     let bp = BulgeParams {
         omega: params.omega,
         floor: params.bulge_floor,

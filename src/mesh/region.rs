@@ -81,6 +81,11 @@ impl Region {
         }
     }
 
+    /// True when no edge has a single face: the region is a whole closed surface.
+    pub fn is_closed(&self) -> bool {
+        !self.border.iter().any(|&b| b)
+    }
+
     /// Number of local vertices.
     pub fn vertex_count(&self) -> usize {
         self.vertices.len()

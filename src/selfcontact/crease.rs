@@ -292,31 +292,34 @@ fn keep_attached(
     shared: &[bool],
     on_w1: &mut [bool],
 ) -> usize {
+    // Components of same-side edges (union-find), attached when they hold a vertex of
+    // `W1 ∪ W2` outside `R`.
     let n = on_w1.len();
-    let mut adjacency: Vec<Vec<u32>> = vec![Vec::new(); n];
+    let mut parent: Vec<u32> = (0..n as u32).collect();
+    fn find(parent: &mut [u32], mut x: u32) -> u32 {
+        while parent[x as usize] != x {
+            parent[x as usize] = parent[parent[x as usize] as usize];
+            x = parent[x as usize];
+        }
+        x
+    }
     for e in edges {
         let [a, b] = e.ends;
-        adjacency[a as usize].push(b);
-        adjacency[b as usize].push(a);
+        if on_w1[a as usize] == on_w1[b as usize] {
+            let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
+            parent[ra.max(rb) as usize] = ra.min(rb);
+        }
     }
     let mut attached = vec![false; n];
-    let mut stack: Vec<u32> = (0..n as u32)
-        .filter(|&v| (input.w1[v as usize] || input.w2[v as usize]) && !shared[v as usize])
-        .collect();
-    for &v in &stack {
-        attached[v as usize] = true;
-    }
-    while let Some(v) = stack.pop() {
-        for &w in &adjacency[v as usize] {
-            if !attached[w as usize] && on_w1[w as usize] == on_w1[v as usize] {
-                attached[w as usize] = true;
-                stack.push(w);
-            }
+    for v in 0..n as u32 {
+        if (input.w1[v as usize] || input.w2[v as usize]) && !shared[v as usize] {
+            let r = find(&mut parent, v);
+            attached[r as usize] = true;
         }
     }
     let mut switched = 0;
     for v in 0..n {
-        if shared[v] && !attached[v] {
+        if shared[v] && !attached[find(&mut parent, v as u32) as usize] {
             on_w1[v] = !on_w1[v];
             switched += 1;
         }

@@ -82,6 +82,9 @@ pub struct FoldPre {
     closed: bool,
     winding: crate::report::metrics::WindingNumber,
     topology: CreaseTopology,
+    /// Per vertex of `R`: adjacent to `W1 \ R`, adjacent to `W2 \ R` (the borders where `σ`
+    /// is +1 or -1).
+    toward: Vec<(bool, bool)>,
 }
 
 /// Time per step of one fold, in seconds.
@@ -153,9 +156,11 @@ impl FoldPre {
         faces.dedup();
         let labels = rest_labels(triangles, &regions);
         let detect = MeshIndex::self_contact_parts(rest, triangles, &labels)?;
-        let closed = crate::deform::WorkingRegion::whole(triangles, n)?.closed;
+        // Only the topology is needed here (no factorization of the whole mesh).
+        let closed = crate::mesh::Region::whole(triangles).is_closed();
         let winding = crate::report::metrics::WindingNumber::new(rest, triangles);
         let topology = CreaseTopology::new(triangles, &faces);
+        let toward = border_sides(triangles, &regions);
         Ok(Self {
             regions,
             w1,
@@ -166,8 +171,26 @@ impl FoldPre {
             closed,
             winding,
             topology,
+            toward,
         })
     }
+}
+
+/// Per vertex of `R`: whether it is adjacent to `W1 \ R` and to `W2 \ R`.
+fn border_sides(triangles: &[[u32; 3]], r: &PairRegions) -> Vec<(bool, bool)> {
+    let mut toward = vec![(false, false); r.w1.len()];
+    for t in triangles {
+        for k in 0..3 {
+            let (a, b) = (t[k] as usize, t[(k + 1) % 3] as usize);
+            for (s, o) in [(a, b), (b, a)] {
+                if r.w1[s] && r.w2[s] {
+                    toward[s].0 |= r.w1[o] && !r.w2[o];
+                    toward[s].1 |= r.w2[o] && !r.w1[o];
+                }
+            }
+        }
+    }
+    toward
 }
 
 /// Face labels from `β` at rest: 1 on W1's side, 2 on W2's, 0 outside both.
@@ -264,7 +287,7 @@ pub fn resolve_fold(
         return Ok(None);
     };
     let t0 = clock.elapsed().as_secs_f64();
-    let sigma = sigma_field(pre, positions, triangles, &contact)?;
+    let sigma = sigma_field(pre, positions, &contact)?;
     let field: Vec<Vector3<f64>> = sigma.iter().map(|s| direction * *s).collect();
     timings.directions = clock.elapsed().as_secs_f64() - t0;
     let t0 = clock.elapsed().as_secs_f64();
@@ -348,7 +371,6 @@ fn cut_labels(triangles: &[[u32; 3]], faces: &[u32], on_w1: &[bool]) -> Vec<u8> 
 fn sigma_field(
     pre: &FoldPre,
     positions: &[Point3<f64>],
-    triangles: &[[u32; 3]],
     contact: &Contact,
 ) -> Result<Vec<f64>, FoldError> {
     let r = &pre.regions;
@@ -418,25 +440,12 @@ fn sigma_field(
         });
         values.push(sign);
     }
-    // R's borders toward W1 \ R (+1) and W2 \ R (-1).
-    let mut toward = vec![(false, false); n];
-    for t in triangles {
-        for k in 0..3 {
-            let (a, b) = (t[k] as usize, t[(k + 1) % 3] as usize);
-            for (s, o) in [(a, b), (b, a)] {
-                if r.w1[s] && r.w2[s] {
-                    toward[s].0 |= r.w1[o] && !r.w2[o];
-                    toward[s].1 |= r.w2[o] && !r.w1[o];
-                }
-            }
-        }
-    }
     let mut fixed = Vec::new();
     for (l, &v) in region.vertices.iter().enumerate() {
         if inside[l] {
             continue;
         }
-        match toward[v as usize] {
+        match pre.toward[v as usize] {
             (true, false) => {
                 fixed.push(l as u32);
                 values.push(1.0);
