@@ -113,4 +113,14 @@ impl Frame {
             .map(|(b, w)| w.gather(&b.positions))
             .collect()
     }
+
+    /// Welded skinned normals of every body (the rest normals carried by the skinning, not
+    /// recomputed from the posed positions: the reference of [`crate::report::metrics::turned_faces`]).
+    pub fn welded_normals(&self, pre: &Precomputed) -> Vec<Vec<nalgebra::Vector3<f64>>> {
+        self.bodies
+            .iter()
+            .zip(&pre.welded)
+            .map(|(b, w)| w.gather(&b.normals))
+            .collect()
+    }
 }

@@ -448,10 +448,12 @@ impl ContactPass {
                 let fa = SideFrame {
                     mesh: &posed[a],
                     normals: &normals[a],
+                    hittable: None,
                 };
                 let fb = SideFrame {
                     mesh: &posed[b],
                     normals: &normals[b],
+                    hittable: None,
                 };
                 resolve_pair(fa, fb, &self.pair_params(a, b, time))
                     .map(|c| {

@@ -8,10 +8,10 @@ use contact_skin::report::metrics;
 use contact_skin::selfcontact::fold::FoldParams;
 use contact_skin::selfcontact::pass::SelfContactPass;
 use contact_skin::selfcontact::RegionOptions;
-use nalgebra::Point3;
+use nalgebra::{Point3, Vector3};
 use scenes::{load, welded_positions, Loaded};
 
-fn self_pass(l: &Loaded) -> SelfContactPass {
+fn self_pass(l: &Loaded, directions: &[(String, Vector3<f64>)]) -> SelfContactPass {
     let rest = welded_positions(&l.rig, &l.pre, 0.0, None);
     SelfContactPass::new(
         &l.rig,
@@ -19,7 +19,7 @@ fn self_pass(l: &Loaded) -> SelfContactPass {
         &rest,
         &RegionOptions::default(),
         FoldParams::default(),
-        &[],
+        directions,
     )
     .expect("self-contact pass precomputes")
 }
@@ -29,20 +29,34 @@ fn penetration(l: &Loaded, b: usize, p: &[Point3<f64>]) -> metrics::Penetration 
     metrics::residual_penetration(p, &l.triangles[b], &n, l.h_rest)
 }
 
-/// Per frame of the first animation: penetrating vertices before and after, volume error,
-/// inverted faces, NaN count; and the second-difference ratio over the animation.
+/// One frame of one body.
+struct Row {
+    frame: usize,
+    folds: usize,
+    /// Penetrating vertices in the input and the output.
+    before: usize,
+    after: usize,
+    volume_error: f64,
+    turned: metrics::TurnedFaces,
+    nan: usize,
+}
+
+/// Per frame of the first animation, the metrics of `MEASURING.md`, and the second-difference
+/// ratio over the animation.
 struct Run {
-    rows: Vec<(usize, usize, usize, f64, usize, usize, usize)>,
+    rows: Vec<Row>,
     ratio: f64,
+    /// Largest second difference of the output (absolute).
+    output_max: f64,
     pairs: Vec<(usize, String)>,
 }
 
-fn run(name: &str, frames: usize) -> Run {
+fn run(name: &str, frames: usize, directions: &[(String, Vector3<f64>)]) -> Run {
     let l = load(name, frames);
-    let pass = self_pass(&l);
+    let pass = self_pass(&l, directions);
     let (mut rows, mut ins, mut outs) = (Vec::new(), Vec::new(), Vec::new());
     for f in 0..frames {
-        let input = l.frame(f);
+        let (input, skinned) = (l.frame(f), l.frame_normals(f));
         let mut out = input.clone();
         let pose = l.rig.pose_at(Some(0), l.times[f]);
         let res = pass
@@ -58,72 +72,120 @@ fn run(name: &str, frames: usize) -> Run {
             let (pi, po) = (penetration(&l, b, &input[b]), penetration(&l, b, &out[b]));
             let v0 = contact_skin::mesh::signed_volume(&input[b], &l.triangles[b]);
             let v1 = contact_skin::mesh::signed_volume(&out[b], &l.triangles[b]);
-            let inv = metrics::inverted_faces(&l.triangles[b], &input[b], &out[b]);
-            rows.push((
-                f,
-                pi.vertices,
-                po.vertices,
-                ((v1 - v0) / v0).abs(),
-                inv.inverted,
-                metrics::non_finite(&out[b]),
-                res.folds.len(),
-            ));
+            let t = &l.triangles[b];
+            rows.push(Row {
+                frame: f,
+                folds: res.folds.len(),
+                before: pi.vertices,
+                after: po.vertices,
+                volume_error: ((v1 - v0) / v0).abs(),
+                turned: metrics::turned_faces(t, &input[b], &out[b], &skinned[b], l.h_rest),
+                nan: metrics::non_finite(&out[b]),
+            });
         }
         ins.push(input.concat());
         outs.push(out.concat());
     }
     let sd = metrics::second_difference_ratio(&outs, &ins);
-    for r in rows.iter().filter(|r| r.6 > 0) {
+    for r in rows.iter().filter(|r| r.folds > 0) {
+        let t = &r.turned;
         println!(
-            "{name} frame {}: folds {} penetrating {} -> {}, volume error {:.1e}, inverted {}",
-            r.0, r.6, r.1, r.2, r.3, r.4
+            "{name} frame {}: folds {} penetrating {} -> {}, volume error {:.1e}, faces turned: \
+             input against skinning {}, output against input {}, against skinning {}, against \
+             both {} ({} buried, {} exposed)",
+            r.frame,
+            r.folds,
+            r.before,
+            r.after,
+            r.volume_error,
+            t.input_against_skinning,
+            t.against_input,
+            t.against_skinning,
+            t.turned,
+            t.buried,
+            t.exposed()
         );
     }
-    println!("{name}: second-difference ratio {:.2}", sd.ratio);
+    println!(
+        "{name}: second-difference ratio {:.2} (output {:.2e} at frame {:?}, vertex {:?}; input {:.2e})",
+        sd.ratio, sd.output_max, sd.frame, sd.vertex, sd.input_max
+    );
     Run {
         rows,
         ratio: sd.ratio,
+        output_max: sd.output_max,
         pairs: pass.pairs(),
     }
 }
 
-/// The bending capsule's `bend` (0 to 150°): the fold is resolved with the volume kept.
-/// Not yet at the issue's targets (see the issue note): faces next to the crease still flip
-/// (up to 72 at 150°).
-#[test]
-fn bending_capsule_fold() {
-    let r = run("bending_capsule", 31);
-    assert_eq!(r.pairs.len(), 1);
+/// The checks shared by the scenes: no NaN; where a fold is resolved, the volume kept, at most
+/// `max_after` penetrating vertices and `max_exposed` faces turned over and visible (see the
+/// issue note: faces at the bottom of the closed crease still turn, buried between the two
+/// coinciding sides); a bounded temporal ratio.
+fn check(name: &str, r: &Run, max_after: usize, max_exposed: usize, max_ratio: f64) {
     assert!(
-        r.rows.iter().any(|x| x.6 > 0),
-        "the bend folds into contact"
+        r.rows.iter().any(|x| x.folds > 0),
+        "{name}: the animation folds into contact"
     );
-    for &(f, before, after, vol, _, nan, folds) in &r.rows {
-        assert_eq!(nan, 0, "frame {f}: NaN");
-        if folds > 0 {
-            assert!(vol < 1e-4, "frame {f}: volume error {vol}");
-            assert!(after <= 2, "frame {f}: penetration {before} -> {after}");
-        }
-        if f <= 15 {
-            assert_eq!(after, 0, "frame {f}: penetration left up to 75°");
+    for x in &r.rows {
+        let f = x.frame;
+        assert_eq!(x.nan, 0, "{name} frame {f}: NaN");
+        if x.folds > 0 {
+            assert!(x.volume_error < 1e-4, "{name} frame {f}: volume error");
+            assert!(
+                x.after <= max_after,
+                "{name} frame {f}: penetration {} -> {}",
+                x.before,
+                x.after
+            );
+            assert!(
+                x.turned.exposed() <= max_exposed,
+                "{name} frame {f}: {} exposed turned faces",
+                x.turned.exposed()
+            );
         }
     }
-    assert!(r.ratio < 3.0, "temporal ratio {}", r.ratio);
+    assert!(r.ratio < max_ratio, "{name}: temporal ratio {}", r.ratio);
+}
+
+/// The bending capsule's `bend` (0 to 150°): the fold is resolved with the volume kept.
+#[test]
+fn bending_capsule_fold() {
+    let r = run("bending_capsule", 31, &[]);
+    assert_eq!(r.pairs.len(), 1);
+    check("bending_capsule", &r, 2, 8, 3.0);
+    for x in r.rows.iter().filter(|x| x.frame <= 15) {
+        assert_eq!(x.after, 0, "frame {}: penetration left up to 75°", x.frame);
+    }
 }
 
 /// The finger's three joints flexing past contact.
 #[test]
 fn finger_folds() {
-    let r = run("finger", 31);
+    let r = run("finger", 31, &[]);
     assert_eq!(r.pairs.len(), 3);
-    for &(f, before, after, vol, _, nan, folds) in &r.rows {
-        assert_eq!(nan, 0, "frame {f}: NaN");
-        if folds > 0 {
-            assert!(vol < 1e-4, "frame {f}: volume error {vol}");
-            assert!(after <= 10, "frame {f}: penetration {before} -> {after}");
-        }
-    }
-    assert!(r.ratio < 3.0, "temporal ratio {}", r.ratio);
+    check("finger", &r, 10, 8, 3.0);
+}
+
+/// The mouth closing, with the paper's hand-set vertical direction (Fig. 1d): the upper lip's
+/// outward direction is -Y. The jaw stops abruptly (frame 24 of 31), and the bulge of the lower
+/// lip moves about three times as fast as the jaw: the output's second difference at that kink
+/// is about three times the input's. A kink, not a pop: sampled twice as finely, the output's
+/// largest second difference halves (a pop keeps its size).
+#[test]
+fn mouth_closes() {
+    let dirs = [("lips/head-jaw".to_string(), -Vector3::y())];
+    let coarse = run("mouth", 31, &dirs);
+    let fine = run("mouth", 61, &dirs);
+    assert_eq!(coarse.pairs.len(), 1);
+    check("mouth", &coarse, 0, 0, 4.0);
+    check("mouth", &fine, 0, 0, 4.0);
+    assert!(
+        fine.output_max < 0.6 * coarse.output_max,
+        "mouth: the largest second difference does not shrink with the frame step ({} -> {})",
+        coarse.output_max,
+        fine.output_max
+    );
 }
 
 /// PIPELINE.md's check of the crease cut: it follows the fold, i.e. every vertex of a cut edge
@@ -220,7 +282,7 @@ fn crease_distance_to_silhouette(
 fn bad_input_gives_typed_errors() {
     use contact_skin::selfcontact::pass::SelfPassError;
     let l = load("bending_capsule", 31);
-    let pass = self_pass(&l);
+    let pass = self_pass(&l, &[]);
     let pose = l.rig.pose_at(Some(0), l.times[30]);
     let mut nan = l.frame(30);
     nan[0][7].y = f64::NAN;

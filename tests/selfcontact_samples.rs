@@ -52,9 +52,11 @@ fn real_characters_never_get_worse() {
             Some(0)
         };
         let times = frames::sample_times(&rig, anim, Some(21));
-        let (mut folded, mut before, mut after, mut inverted, mut vol) = (0, 0, 0, 0, 0.0f64);
-        for &t in &times {
-            let input = scenes::welded_positions(&rig, &pre, t, anim);
+        let (mut folded, mut before, mut after, mut vol) = (0, 0, 0, 0.0f64);
+        let mut turned = metrics::TurnedFaces::default();
+        for (k, &t) in times.iter().enumerate() {
+            let frame = frames::evaluate(&rig, &pre, anim, k, t);
+            let (input, skinned) = (frame.welded(&pre), frame.welded_normals(&pre));
             let mut out = input.clone();
             let pose = rig.pose_at(anim, t);
             let res = pass.run(&rig, &pose, &mut out).expect("self-contact runs");
@@ -69,7 +71,12 @@ fn real_characters_never_get_worse() {
                 if res.folds.iter().any(|f| f.body == b) {
                     before += pen(&input[b]);
                     after += pen(&out[b]);
-                    inverted += metrics::inverted_faces(&w.triangles, &input[b], &out[b]).inverted;
+                    let f = metrics::turned_faces(&w.triangles, &input[b], &out[b], &skinned[b], h);
+                    turned.input_against_skinning += f.input_against_skinning;
+                    turned.against_input += f.against_input;
+                    turned.against_skinning += f.against_skinning;
+                    turned.turned += f.turned;
+                    turned.buried += f.buried;
                     let v0 = contact_skin::mesh::signed_volume(&input[b], &w.triangles);
                     let v1 = contact_skin::mesh::signed_volume(&out[b], &w.triangles);
                     vol = vol.max(metrics::volume_error(v0, v1));
@@ -77,9 +84,14 @@ fn real_characters_never_get_worse() {
             }
         }
         println!(
-            "{rel}: pairs {}, frames with a fold {folded}/{}, penetrating vertices (summed over those frames) {before} -> {after}, inverted faces {inverted}, worst volume error {vol:.1e}",
+            "{rel}: pairs {}, frames with a fold {folded}/{}, penetrating vertices (summed over those frames) {before} -> {after}, faces turned (summed): input against skinning {}, output against input {}, against skinning {}, against both {} ({} buried), worst volume error {vol:.1e}",
             pass.pairs().len(),
-            times.len()
+            times.len(),
+            turned.input_against_skinning,
+            turned.against_input,
+            turned.against_skinning,
+            turned.turned,
+            turned.buried,
         );
         assert!(
             after <= before,

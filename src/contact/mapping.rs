@@ -27,6 +27,17 @@ pub struct SideFrame<'m, 'a> {
     pub mesh: &'m PosedMesh<'a>,
     /// Unit vertex normals.
     pub normals: &'m [Vector3<f64>],
+    /// Per face: whether a ray of the other side may land on it (all faces for `None`). The
+    /// self-contact pass restricts the rays to the neighbourhood of the side's intersection
+    /// region (see `contact::resolve_self_pair`).
+    pub hittable: Option<&'m [bool]>,
+}
+
+impl SideFrame<'_, '_> {
+    /// The farthest hit of `ray` on this side's hittable faces.
+    pub fn farthest_hit(&self, ray: &Ray) -> Option<RayHit> {
+        crate::intersect::farthest_hit_among(self.mesh, ray, self.hittable)
+    }
 }
 
 /// Where a point of one surface lands on the other: `p''` of Algorithm 1 line 16.
@@ -105,7 +116,7 @@ pub fn mapping_region(
         .iter()
         .map(|&v| ray_from(own, v, cast, reach))
         .collect();
-    let hits = crate::intersect::farthest_hits(other.mesh, &rays);
+    let hits = crate::intersect::farthest_hits_among(other.mesh, &rays, other.hittable);
     region.stats.rays += rays.len();
     for (&v, hit) in seeds.iter().zip(hits) {
         match hit {
@@ -327,7 +338,7 @@ fn propagate(
     while let Some(v) = queue.pop_front() {
         if region.mapped[v as usize].is_none() {
             region.stats.rays += 1;
-            match farthest_hit(other.mesh, &ray_from(own, v, cast, reach)) {
+            match other.farthest_hit(&ray_from(own, v, cast, reach)) {
                 Some(h) => {
                     region.mapped[v as usize] = Some(mapping_of(other, &h));
                     region.stats.projected += 1;

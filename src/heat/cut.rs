@@ -2,10 +2,10 @@
 //! module doc of [`crate::heat`]).
 
 use crate::mesh::operators::FaceGeometry;
+use crate::mesh::Queued;
 use crate::mesh::Region;
 use crate::solve::{SolveError, SpdPattern};
 use nalgebra::Point3;
-use std::cmp::Ordering;
 use std::collections::{BinaryHeap, HashMap};
 
 /// Smallest and largest edge parameter of an inserted point (`PIPELINE.md`): keeps the cut
@@ -455,23 +455,6 @@ fn point_nodes(region: &Region, boundary: &Boundary) -> Result<HashMap<u32, u32>
         }
     }
     Ok(map)
-}
-
-#[derive(Clone, Copy, PartialEq)]
-struct Queued(f64, u32);
-
-impl Eq for Queued {}
-
-impl Ord for Queued {
-    fn cmp(&self, other: &Self) -> Ordering {
-        other.0.total_cmp(&self.0).then(other.1.cmp(&self.1))
-    }
-}
-
-impl PartialOrd for Queued {
-    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
-        Some(self.cmp(other))
-    }
 }
 
 /// Faces of `region` within Dijkstra distance `radius` (along edges, outside `C`) of the

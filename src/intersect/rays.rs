@@ -58,6 +58,16 @@ impl Ray {
 /// go to the smallest face id). `None` when nothing is hit or the ray is invalid (non-finite,
 /// zero direction, negative `max_t`).
 pub fn farthest_hit(mesh: &PosedMesh, ray: &Ray) -> Option<RayHit> {
+    farthest_hit_among(mesh, ray, None)
+}
+
+/// [`farthest_hit`] among the faces `f` with `hittable[f]` (all faces for `None`; a face
+/// beyond the mask is not hittable).
+pub fn farthest_hit_among(
+    mesh: &PosedMesh,
+    ray: &Ray,
+    hittable: Option<&[bool]>,
+) -> Option<RayHit> {
     if !ray.is_valid() {
         return None;
     }
@@ -65,6 +75,9 @@ pub fn farthest_hit(mesh: &PosedMesh, ray: &Ray) -> Option<RayHit> {
     let mut best: Option<RayHit> = None;
     mesh.bvh()
         .farthest_along(&ray.origin, &ray.dir, ray.max_t, |f, range| {
+            if hittable.is_some_and(|m| !m.get(f as usize).copied().unwrap_or(false)) {
+                return None;
+            }
             let hit = segment_hit(mesh, f, ray, &end, range)?;
             let better = best
                 .as_ref()
@@ -79,9 +92,18 @@ pub fn farthest_hit(mesh: &PosedMesh, ray: &Ray) -> Option<RayHit> {
 
 /// [`farthest_hit`] for many rays, in parallel; the output follows the input order.
 pub fn farthest_hits(mesh: &PosedMesh, rays: &[Ray]) -> Vec<Option<RayHit>> {
+    farthest_hits_among(mesh, rays, None)
+}
+
+/// [`farthest_hit_among`] for many rays, in parallel; the output follows the input order.
+pub fn farthest_hits_among(
+    mesh: &PosedMesh,
+    rays: &[Ray],
+    hittable: Option<&[bool]>,
+) -> Vec<Option<RayHit>> {
     rays.par_iter()
         .with_min_len(64)
-        .map(|r| farthest_hit(mesh, r))
+        .map(|r| farthest_hit_among(mesh, r, hittable))
         .collect()
 }
 

@@ -296,3 +296,22 @@ mod tests {
         assert_eq!(w.report.isolated_vertices, 2);
     }
 }
+
+/// A vertex and its distance in a Dijkstra search: ordered so that [`std::collections::BinaryHeap`]
+/// pops the nearest first (ties by vertex id).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Queued(pub f64, pub u32);
+
+impl Eq for Queued {}
+
+impl Ord for Queued {
+    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+        other.0.total_cmp(&self.0).then(other.1.cmp(&self.1))
+    }
+}
+
+impl PartialOrd for Queued {
+    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}

@@ -1130,6 +1130,80 @@ pub fn inverted_faces(
     out
 }
 
+/// Face counts of [`turned_faces`]: orientation against two references, for inputs that may be
+/// turned over themselves.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct TurnedFaces {
+    /// Input faces turned against the skinning's normal field (LBS's loop at a collapsed
+    /// joint: the input is already folded there).
+    pub input_against_skinning: usize,
+    /// Output faces turned against the input (`MEASURING.md`'s inverted faces).
+    pub against_input: usize,
+    /// Output faces turned against the skinning's normal field.
+    pub against_skinning: usize,
+    /// Output faces turned against both: the faces the deformer turned over.
+    pub turned: usize,
+    /// Of [`TurnedFaces::turned`], those with material on both sides (buried in a closed crease,
+    /// where the two sides of a fold coincide): invisible from outside.
+    pub buried: usize,
+}
+
+impl TurnedFaces {
+    /// Turned faces that can be seen from outside the body.
+    pub fn exposed(&self) -> usize {
+        self.turned - self.buried
+    }
+}
+
+/// Faces turned over (normal more than 90° away) against the input and against the normal
+/// field of the skinning (`skinned_normals`, the rest normals carried by the blended joint
+/// transforms, one per vertex; a face's reference is the sum over its corners).
+///
+/// `MEASURING.md` counts faces turned against the input. Where the skinned input is itself
+/// folded (the loop LBS makes at a joint bent into contact, whose tip is turned against the
+/// skinning's normals) undoing the fold turns those faces back, and the input criterion
+/// counts them; a face is turned by the deformer when it is turned against both references.
+/// A turned face is *buried* when the generalized winding number of the output is at least
+/// 0.5 at both points `0.1 h` in front of and behind its centroid (material on both sides).
+/// Degenerate and invalid faces are skipped (see [`inverted_faces`]).
+pub fn turned_faces(
+    triangles: &[[u32; 3]],
+    input_positions: &[Point3<f64>],
+    output_positions: &[Point3<f64>],
+    skinned_normals: &[Vector3<f64>],
+    h: f64,
+) -> TurnedFaces {
+    let mut out = TurnedFaces::default();
+    let winding = WindingNumber::new(output_positions, triangles);
+    for t in triangles {
+        let (Some(a), Some(b)) = (corners(input_positions, t), corners(output_positions, t)) else {
+            continue;
+        };
+        if is_degenerate(&a) || is_degenerate(&b) {
+            continue;
+        }
+        let reference: Vector3<f64> = t
+            .iter()
+            .filter_map(|&v| skinned_normals.get(v as usize))
+            .sum();
+        let (na, nb) = (double_area_vector(&a), double_area_vector(&b));
+        let vs_input = na.dot(&nb) < 0.0;
+        let vs_skinning = nb.dot(&reference) < 0.0;
+        out.input_against_skinning += usize::from(na.dot(&reference) < 0.0);
+        out.against_input += usize::from(vs_input);
+        out.against_skinning += usize::from(vs_skinning);
+        if vs_input && vs_skinning {
+            out.turned += 1;
+            let c = Point3::from((b[0].coords + b[1].coords + b[2].coords) / 3.0);
+            let e = nb.normalize() * (0.1 * h);
+            if winding.query(&(c + e)) >= 0.5 && winding.query(&(c - e)) >= 0.5 {
+                out.buried += 1;
+            }
+        }
+    }
+    out
+}
+
 /// Largest second difference of an animation, relative to its input (see
 /// [`second_difference_ratio`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

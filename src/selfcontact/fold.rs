@@ -274,10 +274,12 @@ pub fn resolve_fold(
         SideFrame {
             mesh: &posed[0],
             normals,
+            hittable: None,
         },
         SideFrame {
             mesh: &posed[1],
             normals,
+            hittable: None,
         },
         &pair,
         tree,

@@ -72,6 +72,11 @@ impl Loaded {
         welded_positions(&self.rig, &self.pre, self.times[k], Some(0))
     }
 
+    /// The skinned normals of frame `k` (welded), the reference of `metrics::turned_faces`.
+    pub fn frame_normals(&self, k: usize) -> Vec<Vec<Vector3<f64>>> {
+        frames::evaluate(&self.rig, &self.pre, Some(0), k, self.times[k]).welded_normals(&self.pre)
+    }
+
     pub fn pass(&self, params: Vec<ObjectParams>, overrides: Vec<PairOverride>) -> ContactPass {
         let rest = welded_positions(&self.rig, &self.pre, 0.0, None);
         let bodies: Vec<RestBody> = rest
