@@ -299,3 +299,56 @@ fn bad_input_gives_typed_errors() {
     short[0].truncate(10);
     assert!(pass.run(&l.rig, &pose, &mut short).is_err());
 }
+
+/// The issue's "exterior of the joint unchanged where β = 0.5 and no contact": on the convex
+/// side of the bending capsule (rest `x > 0`, the bend turns toward -X) at `β ∈ [0.4, 0.6]`
+/// both regions leave the surface alone, so the blend must too. Checked with the deformation
+/// extent `φ̄` set to one capsule radius, as long as the extent floor `κ φ_I` stays below the
+/// joint's diameter: without bulge (γ = 0) up to 80°, with the bulge (γ = 1) up to 60°; past
+/// that the floor (or the bulge) reaches round the joint and the exterior moves, as it does
+/// at every angle with the default `φ̄` of 1 scene unit (five radii; see the issue note).
+#[test]
+fn exterior_of_the_joint_is_left_alone() {
+    use contact_skin::selfcontact::fold::{resolve_fold, FoldPre};
+    use contact_skin::selfcontact::{derive_pairs, skeleton_direction, BoneAxes};
+    let l = load("bending_capsule", 31);
+    let rest = welded_positions(&l.rig, &l.pre, 0.0, None);
+    let pairs = derive_pairs(&l.rig, &l.pre.welded, &RegionOptions::default()).expect("pairs");
+    let regions = pairs.into_iter().next().expect("one pair");
+    let axes = BoneAxes::new(&l.rig, &l.pre.welded[0], &regions);
+    let pair = regions.pair.clone();
+    let exterior: Vec<usize> = (0..rest[0].len())
+        .filter(|&v| regions.w1[v] && regions.w2[v] && (regions.beta[v] - 0.5).abs() < 0.1)
+        .filter(|&v| rest[0][v].x > 0.0)
+        .collect();
+    assert!(exterior.len() >= 8, "the capsule has an exterior band");
+    let pre = FoldPre::new(&rest[0], &l.triangles[0], regions).expect("fold");
+    for (gamma, last) in [(0.0, 16), (1.0, 12)] {
+        let mut params = FoldParams::default();
+        params.deform.extent = 0.2;
+        params.deform.gamma = gamma;
+        let mut folds = 0;
+        for f in 0..=last {
+            let input = l.frame(f);
+            let pose = l.rig.pose_at(Some(0), l.times[f]);
+            let d = skeleton_direction(&l.rig, &pose, &pair, axes.leaf_axis).expect("direction");
+            let n = vertex_normals(&input[0], &l.triangles[0], NormalWeighting::Area);
+            let out =
+                resolve_fold(&pre, &input[0], &n, &l.triangles[0], d, &params).expect("fold runs");
+            let Some(out) = out else { continue };
+            folds += 1;
+            let moved = exterior
+                .iter()
+                .map(|&v| (out.positions[v] - input[0][v]).norm() / l.h_rest)
+                .fold(0.0, f64::max);
+            assert!(
+                moved < 0.01,
+                "gamma {gamma}, frame {f}: the exterior moved {moved:.4} h"
+            );
+        }
+        assert!(
+            folds >= 3,
+            "gamma {gamma}: the bend folds in {folds} frames"
+        );
+    }
+}
