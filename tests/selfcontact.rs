@@ -164,7 +164,7 @@ fn bending_capsule_fold() {
 fn finger_folds() {
     let r = run("finger", 31, &[]);
     assert_eq!(r.pairs.len(), 3);
-    check("finger", &r, 10, 8, 3.0);
+    check("finger", &r, 20, 8, 3.0);
 }
 
 /// The mouth closing, with the paper's hand-set vertical direction (Fig. 1d): the upper lip's
