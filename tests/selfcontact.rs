@@ -8,8 +8,9 @@ use contact_skin::report::metrics;
 use contact_skin::selfcontact::fold::FoldParams;
 use contact_skin::selfcontact::pass::SelfContactPass;
 use contact_skin::selfcontact::RegionOptions;
+use contact_skin::skinning::Method;
 use nalgebra::{Point3, Vector3};
-use scenes::{load, welded_positions, Loaded};
+use scenes::{load, load_with, welded_positions, Loaded};
 
 fn self_pass(l: &Loaded, directions: &[(String, Vector3<f64>)]) -> SelfContactPass {
     let rest = welded_positions(&l.rig, &l.pre, 0.0, None);
@@ -52,7 +53,16 @@ struct Run {
 }
 
 fn run(name: &str, frames: usize, directions: &[(String, Vector3<f64>)]) -> Run {
-    let l = load(name, frames);
+    run_with(name, frames, directions, Method::Lbs)
+}
+
+fn run_with(
+    name: &str,
+    frames: usize,
+    directions: &[(String, Vector3<f64>)],
+    method: Method,
+) -> Run {
+    let l = load_with(name, frames, method);
     let pass = self_pass(&l, directions);
     let (mut rows, mut ins, mut outs) = (Vec::new(), Vec::new(), Vec::new());
     for f in 0..frames {
@@ -156,6 +166,27 @@ fn bending_capsule_fold() {
     check("bending_capsule", &r, 2, 8, 3.0);
     for x in r.rows.iter().filter(|x| x.frame <= 15) {
         assert_eq!(x.after, 0, "frame {}: penetration left up to 75°", x.frame);
+    }
+}
+
+/// The same bend with Center-of-Rotation skinning as input: resolved with the volume kept,
+/// but not yet at the issue's targets (see the issue note): the crease's bottom still turns
+/// faces over (up to 34 visible at 150°) and the temporal ratio reaches 12 (the profile
+/// around CoR's crease is large, about 2.5 h, and a crease vertex joining a zone jumps).
+#[test]
+fn bending_capsule_fold_cor() {
+    let r = run_with("bending_capsule", 31, &[], Method::Cor);
+    assert!(r.rows.iter().any(|x| x.folds > 0), "CoR: the bend folds");
+    for x in r.rows.iter().filter(|x| x.folds > 0) {
+        assert_eq!(x.nan, 0, "CoR frame {}: NaN", x.frame);
+        assert!(x.volume_error < 1e-4, "CoR frame {}: volume", x.frame);
+        assert!(
+            x.after <= 5,
+            "CoR frame {}: penetration {} -> {}",
+            x.frame,
+            x.before,
+            x.after
+        );
     }
 }
 

@@ -99,8 +99,13 @@ struct SelfContactRow {
     /// Largest relative volume change of the output against the skinned input (signed
     /// volumes), over the frames.
     worst_volume_error: f64,
-    /// Faces turned by more than 90° from input to output at the deepest frame.
+    /// Faces turned by more than 90° from input to output at the deepest frame
+    /// (`MEASURING.md`'s inverted faces).
     inverted_faces: usize,
+    /// The same faces against the skinning's normals too, at the deepest frame (see
+    /// [`metrics::turned_faces`]: LBS's loop is turned over in the input, undoing it is not a
+    /// fault).
+    turned_faces: metrics::TurnedFaces,
     /// Median time per frame: skinning and both passes (ms).
     median_frame_ms: f64,
     /// Median time of the self-contact pass per frame (ms).
@@ -426,15 +431,12 @@ fn run_self_contact(
         .zip(&inputs)
         .map(|((f, _), input)| volume_error(input, f, &tris))
         .fold(0.0, f64::max);
-    let (after, inverted) = match (timed.get(deepest), inputs.get(deepest)) {
+    let (after, turned) = match (timed.get(deepest), inputs.get(deepest)) {
         (Some((f, _)), Some(input)) => (
             self_penetration(&f.positions, &tris, h),
-            tris.iter()
-                .enumerate()
-                .map(|(b, t)| metrics::inverted_faces(t, &input[b], &f.positions[b]).inverted)
-                .sum(),
+            turned_faces(&tris, input, &f.input.welded_normals(&pre), &f.positions, h),
         ),
-        _ => (PenetrationRow::default(), 0),
+        _ => (PenetrationRow::default(), metrics::TurnedFaces::default()),
     };
     let with_fold: Vec<_> = timed
         .iter()
@@ -463,7 +465,8 @@ fn run_self_contact(
         penetration_before: before.get(deepest).copied().unwrap_or_default(),
         penetration_after: after,
         worst_volume_error,
-        inverted_faces: inverted,
+        inverted_faces: turned.against_input,
+        turned_faces: turned,
         median_frame_ms: median(timed.iter().map(|(_, ms)| *ms).collect()),
         median_self_ms: median(timed.iter().map(|(f, _)| f.self_wall * 1e3).collect()),
         fold_ms: median_folds(&with_fold),
@@ -648,13 +651,33 @@ fn print_contact_table(rows: &[ContactRow]) {
     );
 }
 
+/// [`metrics::turned_faces`] summed over the bodies.
+fn turned_faces(
+    tris: &[&[[u32; 3]]],
+    input: &[Vec<Point3<f64>>],
+    skinned: &[Vec<nalgebra::Vector3<f64>>],
+    output: &[Vec<Point3<f64>>],
+    h: f64,
+) -> metrics::TurnedFaces {
+    let mut sum = metrics::TurnedFaces::default();
+    for (b, t) in tris.iter().enumerate() {
+        let f = metrics::turned_faces(t, &input[b], &output[b], &skinned[b], h);
+        sum.input_against_skinning += f.input_against_skinning;
+        sum.against_input += f.against_input;
+        sum.against_skinning += f.against_skinning;
+        sum.turned += f.turned;
+        sum.buried += f.buried;
+    }
+    sum
+}
+
 fn print_self_contact_table(rows: &[SelfContactRow]) {
     if rows.is_empty() {
         return;
     }
     println!();
     println!(
-        "{:<16} {:<6} {:<6} {:>11} {:>32} {:>10} {:>9} {:>9} {:>9}",
+        "{:<16} {:<6} {:<6} {:>11} {:>32} {:>10} {:>9} {:>7} {:>9} {:>9}",
         "scene",
         "anim",
         "skin",
@@ -662,13 +685,14 @@ fn print_self_contact_table(rows: &[SelfContactRow]) {
         "self-penetration before -> after",
         "max |dV|/V",
         "inverted",
+        "turned",
         "ms/frame",
         "self ms"
     );
     for r in rows {
         let (b, f) = (r.penetration_before, r.penetration_after);
         println!(
-            "{:<16} {:<6} {:<6} {:>4}/{:<6} {:>32} {:>10.1e} {:>9} {:>9.2} {:>9.2}",
+            "{:<16} {:<6} {:<6} {:>4}/{:<6} {:>32} {:>10.1e} {:>9} {:>7} {:>9.2} {:>9.2}",
             r.scene,
             r.animation,
             r.method,
@@ -680,6 +704,7 @@ fn print_self_contact_table(rows: &[SelfContactRow]) {
             ),
             r.worst_volume_error,
             r.inverted_faces,
+            r.turned_faces.turned,
             r.median_frame_ms,
             r.median_self_ms
         );
@@ -687,7 +712,8 @@ fn print_self_contact_table(rows: &[SelfContactRow]) {
     println!(
         "(self-contact: first animation; penetration of the body into itself at the frame whose \
          input is deepest; max |dV|/V output against skinned input over the frames; inverted \
-         faces at that frame; OBJ frames in <scene>/contact_obj (CoR: contact_obj_cor), baked \
+         faces (turned against the input) and turned faces (against the input and the \
+         skinning's normals: LBS's loop is turned in the input) at that frame; OBJ frames in <scene>/contact_obj (CoR: contact_obj_cor), baked \
          <scene>/<anim>.contact.glb (CoR: .contact.cor.glb))"
     );
 }

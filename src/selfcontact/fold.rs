@@ -415,8 +415,18 @@ fn zones_to_the_crease(
             continue;
         }
         for v in [va, vb] {
-            let side = &mut contact.sides[usize::from(!on_w1[v])];
-            if side.samples[v].is_some() && !side.zone.inside[v] && inside(v) {
+            if contact.sides.iter().any(|c| c.zone.inside[v]) {
+                continue;
+            }
+            let own = usize::from(!on_w1[v]);
+            let Some(k) = [own, 1 - own]
+                .into_iter()
+                .find(|&k| conditioned(&contact.sides[k], v, length))
+            else {
+                continue;
+            };
+            if inside(v) {
+                let side = &mut contact.sides[k];
                 side.zone.inside[v] = true;
                 side.zone.vertices.push(v as u32);
             }
@@ -425,6 +435,18 @@ fn zones_to_the_crease(
     for side in &mut contact.sides {
         side.zone.vertices.sort_unstable();
     }
+}
+
+/// Whether `side`'s sample of `v` places it on `S` by a displacement that agrees with its
+/// depth (Eq. 3): the angle between the displacement and the normal of `S` is below 60°, or
+/// the displacement is below 0.05 `length`. At the bottom of a fold `S` can turn parallel to
+/// the mapping axis, where a vertex on `S` (depth 0) is sent along it by a whole edge length
+/// (measured on the bending capsule with CoR input): such a sample is left to the profile.
+fn conditioned(side: &ContactSide, v: usize, length: f64) -> bool {
+    side.samples[v].is_some_and(|s| {
+        let moved = (s.surface_point - s.point).norm();
+        moved <= 0.05 * length || s.depth * (1.0 - side.stiffness) >= 0.5 * moved
+    })
 }
 
 /// `σ`: +1 on `W1 \ R` and `C_1`, -1 on `W2 \ R` and `C_2`, harmonic on the rest of `R`

@@ -22,11 +22,16 @@ pub struct Loaded {
 }
 
 pub fn load(name: &str, frames: usize) -> Loaded {
+    load_with(name, frames, Method::Lbs)
+}
+
+/// A committed rig skinned with `method`.
+pub fn load_with(name: &str, frames: usize, method: Method) -> Loaded {
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("rigs")
         .join(format!("{name}.glb"));
     let rig = rig::load(&path).expect("committed rig loads");
-    prepare(rig, frames)
+    prepare(rig, frames, method)
 }
 
 /// A scene generated in memory at another resolution.
@@ -34,11 +39,11 @@ pub fn load_generated(name: &str, resolution: u32, frames: usize) -> Loaded {
     let scene = contact_skin::scenes::Scene::from_name(name).expect("known scene");
     let bytes = contact_skin::scenes::build_glb(scene, resolution).expect("scene builds");
     let rig = rig::load_from_bytes(Path::new(name), &bytes).expect("generated rig loads");
-    prepare(rig, frames)
+    prepare(rig, frames, Method::Lbs)
 }
 
-fn prepare(rig: Rig, frames: usize) -> Loaded {
-    let pre = Precomputed::new(&rig, Method::Lbs);
+fn prepare(rig: Rig, frames: usize, method: Method) -> Loaded {
+    let pre = Precomputed::new(&rig, method);
     let times = frames::sample_times(&rig, Some(0), Some(frames));
     let triangles: Vec<Vec<[u32; 3]>> = pre.welded.iter().map(|w| w.triangles.clone()).collect();
     let rest = welded_positions(&rig, &pre, 0.0, None);
