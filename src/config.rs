@@ -24,7 +24,7 @@
 //! grow_rings = 2
 //! stiffness = 0.5                 # k̄ of the parent side, in [0, 1]
 //! tau = 0.0
-//! extent = 0.2                    # or extent_factor (× rest bbox diagonal)
+//! joint_extent = 1.75             # φ̄ × the joint's size (default); or extent / extent_factor
 //! gamma = 1.0
 //! omega = 2.0
 //! [[self_contact.pair]]
@@ -409,6 +409,8 @@ pub struct SelfContactSpec {
     pub extent: Option<f64>,
     /// `φ̄` as a fraction of the rest bounding-box diagonal of the body.
     pub extent_factor: Option<f64>,
+    /// `φ̄` as a multiple of each joint's size ([`FoldParams::joint_extent`], the default).
+    pub joint_extent: Option<f64>,
     /// `γ`.
     pub gamma: Option<f64>,
     /// `ω`.
@@ -666,6 +668,19 @@ impl ContactConfig {
             omega: sc.omega,
         };
         self.check_params(&params, at)?;
+        if let Some(k) = sc.joint_extent {
+            if !(k.is_finite() && k > 0.0) {
+                return Err(
+                    self.invalid(format!("{at}.joint_extent"), "must be finite and positive")
+                );
+            }
+            if sc.extent.is_some() || sc.extent_factor.is_some() {
+                return Err(self.invalid(
+                    format!("{at}.joint_extent"),
+                    "give one of extent, extent_factor and joint_extent",
+                ));
+            }
+        }
         for (j, p) in sc.pairs.iter().enumerate() {
             let field = format!("{at}.pair[{j}]");
             if p.name.trim().is_empty() {
@@ -1044,8 +1059,12 @@ impl ContactConfig {
         if let Some(w) = spec.omega {
             params.deform.omega = w;
         }
+        if let Some(k) = spec.joint_extent {
+            params.joint_extent = Some(k);
+        }
         if let Some(e) = spec.extent {
             params.deform.extent = e;
+            params.joint_extent = None;
         } else if let Some(f) = spec.extent_factor {
             let diagonals = rest_diagonals(rig);
             let with_pairs = derived
@@ -1062,6 +1081,7 @@ impl ContactConfig {
                 ));
             }
             params.deform.extent = extent;
+            params.joint_extent = None;
         }
         let mut directions = Vec::with_capacity(spec.pairs.len());
         for (j, p) in spec.pairs.iter().enumerate() {

@@ -673,6 +673,7 @@ fn the_self_contact_table_parses_and_resolves() {
     let mut params = FoldParams {
         stiffness_1: 0.7,
         tau: 0.2,
+        joint_extent: None,
         ..Default::default()
     };
     params.deform.extent = 0.25 * diagonal;

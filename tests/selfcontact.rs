@@ -129,10 +129,9 @@ fn run_with(
 }
 
 /// The checks shared by the scenes: no NaN; where a fold is resolved, the volume kept, at most
-/// `max_after` penetrating vertices and `max_exposed` faces turned over and visible (see the
-/// issue note: faces at the bottom of the closed crease still turn, buried between the two
-/// coinciding sides); a bounded temporal ratio.
-fn check(name: &str, r: &Run, max_after: usize, max_exposed: usize, max_ratio: f64) {
+/// `max_after` penetrating vertices and `max_turned` faces turned over by the pass (against
+/// the input and the skinning's normals, `metrics::turned_faces`); a bounded temporal ratio.
+fn check(name: &str, r: &Run, max_after: usize, max_turned: usize, max_ratio: f64) {
     assert!(
         r.rows.iter().any(|x| x.folds > 0),
         "{name}: the animation folds into contact"
@@ -149,8 +148,9 @@ fn check(name: &str, r: &Run, max_after: usize, max_exposed: usize, max_ratio: f
                 x.after
             );
             assert!(
-                x.turned.exposed() <= max_exposed,
-                "{name} frame {f}: {} exposed turned faces",
+                x.turned.turned <= max_turned,
+                "{name} frame {f}: {} faces turned ({} exposed)",
+                x.turned.turned,
                 x.turned.exposed()
             );
         }
@@ -163,16 +163,14 @@ fn check(name: &str, r: &Run, max_after: usize, max_exposed: usize, max_ratio: f
 fn bending_capsule_fold() {
     let r = run("bending_capsule", 31, &[]);
     assert_eq!(r.pairs.len(), 1);
-    check("bending_capsule", &r, 2, 8, 3.0);
-    for x in r.rows.iter().filter(|x| x.frame <= 15) {
-        assert_eq!(x.after, 0, "frame {}: penetration left up to 75°", x.frame);
-    }
+    check("bending_capsule", &r, 0, 2, 3.0);
 }
 
-/// The same bend with Center-of-Rotation skinning as input: resolved with the volume kept,
-/// but not yet at the issue's targets (see the issue note): the crease's bottom still turns
-/// faces over (up to 34 visible at 150°) and the temporal ratio reaches 12 (the profile
-/// around CoR's crease is large, about 2.5 h, and a crease vertex joining a zone jumps).
+/// The same bend with Center-of-Rotation skinning as input: resolved with the volume kept and
+/// at most 6 penetrating vertices, but not yet at the issue's targets (see the issue note):
+/// the crease's bottom still turns faces over (up to 35 visible at 150°) and the temporal
+/// ratio reaches 12 (the profile around CoR's crease is large, about 2.5 h, and a crease
+/// vertex joining a zone jumps).
 #[test]
 fn bending_capsule_fold_cor() {
     let r = run_with("bending_capsule", 31, &[], Method::Cor);
@@ -181,7 +179,7 @@ fn bending_capsule_fold_cor() {
         assert_eq!(x.nan, 0, "CoR frame {}: NaN", x.frame);
         assert!(x.volume_error < 1e-4, "CoR frame {}: volume", x.frame);
         assert!(
-            x.after <= 5,
+            x.after <= 8,
             "CoR frame {}: penetration {} -> {}",
             x.frame,
             x.before,
@@ -195,22 +193,20 @@ fn bending_capsule_fold_cor() {
 fn finger_folds() {
     let r = run("finger", 31, &[]);
     assert_eq!(r.pairs.len(), 3);
-    check("finger", &r, 20, 8, 3.0);
+    check("finger", &r, 6, 3, 3.0);
 }
 
 /// The mouth closing, with the paper's hand-set vertical direction (Fig. 1d): the upper lip's
-/// outward direction is -Y. The jaw stops abruptly (frame 24 of 31), and the bulge of the lower
-/// lip moves about three times as fast as the jaw: the output's second difference at that kink
-/// is about three times the input's. A kink, not a pop: sampled twice as finely, the output's
-/// largest second difference halves (a pop keeps its size).
+/// outward direction is -Y. The jaw stops abruptly (frame 24 of 31); sampled twice as finely,
+/// the output's largest second difference must halve like the input's (a pop keeps its size).
 #[test]
 fn mouth_closes() {
     let dirs = [("lips/head-jaw".to_string(), -Vector3::y())];
     let coarse = run("mouth", 31, &dirs);
     let fine = run("mouth", 61, &dirs);
     assert_eq!(coarse.pairs.len(), 1);
-    check("mouth", &coarse, 0, 0, 4.0);
-    check("mouth", &fine, 0, 0, 4.0);
+    check("mouth", &coarse, 0, 0, 3.0);
+    check("mouth", &fine, 0, 0, 3.0);
     assert!(
         fine.output_max < 0.6 * coarse.output_max,
         "mouth: the largest second difference does not shrink with the frame step ({} -> {})",
@@ -355,7 +351,10 @@ fn exterior_of_the_joint_is_left_alone() {
     assert!(exterior.len() >= 8, "the capsule has an exterior band");
     let pre = FoldPre::new(&rest[0], &l.triangles[0], regions).expect("fold");
     for (gamma, last) in [(0.0, 16), (1.0, 12)] {
-        let mut params = FoldParams::default();
+        let mut params = FoldParams {
+            joint_extent: None,
+            ..FoldParams::default()
+        };
         params.deform.extent = 0.2;
         params.deform.gamma = gamma;
         let mut folds = 0;

@@ -77,6 +77,10 @@ struct SelfPairInfo {
     reason: String,
     /// The user direction of `[[self_contact.pair]]`, normalized (`null`: from the skeleton).
     direction: Option<[f64; 3]>,
+    /// The joint's size (diagonal of `R`'s rest bounding box).
+    joint_size: f64,
+    /// `φ̄` of this pair in scene units.
+    extent: f64,
 }
 
 /// The self-contact pass as it would run: its parameters, resolved, and the joint pairs.
@@ -93,7 +97,9 @@ struct SelfContactInfo {
     /// `k̄` of the parent side.
     stiffness: f64,
     tau: f64,
-    /// `φ̄` in scene units.
+    /// `φ̄` as a multiple of each joint's size (`null`: `extent` in scene units for all).
+    joint_extent: Option<f64>,
+    /// `φ̄` in scene units when `joint_extent` is `null`.
     extent: f64,
     gamma: f64,
     omega: f64,
@@ -226,11 +232,22 @@ fn describe_self_contact(
             .and_then(|x| x.name.clone())
             .unwrap_or_else(|| format!("node{n}"))
     };
+    let f = &settings.params;
+    // The rest pose as the pass sees it (skinned at rest: node transforms included).
+    let rest = contact_skin::frames::welded_positions(
+        rig,
+        &contact_skin::frames::Precomputed::new(rig, contact_skin::skinning::Method::Lbs),
+        None,
+        0.0,
+    );
     let pairs = regions
         .iter()
         .map(|r| {
             let p = &r.pair;
+            let joint_size = rest.get(p.body).map_or(f64::NAN, |x| r.joint_size(x));
             SelfPairInfo {
+                joint_size,
+                extent: f.joint_extent.map_or(f.deform.extent, |k| k * joint_size),
                 body: p.body,
                 body_name: rig.bodies[p.body].name.clone(),
                 name: p.name.clone(),
@@ -246,8 +263,8 @@ fn describe_self_contact(
             }
         })
         .collect();
-    let f = &settings.params;
     Ok(SelfContactInfo {
+        joint_extent: f.joint_extent,
         enabled: settings.enabled,
         passes: settings.passes,
         configured: cfg.self_contact.is_some(),
@@ -265,7 +282,7 @@ fn describe_self_contact(
 
 fn print_self_contact(s: &SelfContactInfo) {
     println!(
-        "  self-contact ({}{}): {} sweep(s) per frame, threshold {}, grow rings {}, stiffness {}, tau {}, extent {:.6}, gamma {}, omega {}",
+        "  self-contact ({}{}): {} sweep(s) per frame, threshold {}, grow rings {}, stiffness {}, tau {}, extent {}, gamma {}, omega {}",
         if s.enabled { "on" } else { "off" },
         if s.configured {
             ", [self_contact] of the configuration"
@@ -277,7 +294,10 @@ fn print_self_contact(s: &SelfContactInfo) {
         s.grow_rings,
         s.stiffness,
         s.tau,
-        s.extent,
+        match s.joint_extent {
+            Some(k) => format!("{k} x joint size"),
+            None => format!("{:.6}", s.extent),
+        },
         s.gamma,
         s.omega
     );
@@ -292,8 +312,8 @@ fn print_self_contact(s: &SelfContactInfo) {
             None => "direction from the skeleton".into(),
         };
         println!(
-            "    pair '{}' (body {} '{}', joints '{}' -> '{}'): shared region {} vertices, {direction}",
-            p.name, p.body, p.body_name, p.parent, p.child, p.shared
+            "    pair '{}' (body {} '{}', joints '{}' -> '{}'): shared region {} vertices, joint size {:.6}, extent {:.6}, {direction}",
+            p.name, p.body, p.body_name, p.parent, p.child, p.shared, p.joint_size, p.extent
         );
         println!("      {}", p.reason);
     }

@@ -83,6 +83,19 @@ pub struct PairRegions {
     pub reason: String,
 }
 
+impl PairRegions {
+    /// The joint's size: the diagonal of the bounding box of the shared region `R` at `rest`
+    /// (the unit of [`crate::selfcontact::fold::FoldParams::joint_extent`]).
+    pub fn joint_size(&self, rest: &[Point3<f64>]) -> f64 {
+        let points: Vec<Point3<f64>> = self
+            .shared
+            .iter()
+            .filter_map(|&v| rest.get(v as usize).copied())
+            .collect();
+        crate::mesh::bbox_diagonal(&points)
+    }
+}
+
 /// Working regions of every parent/child joint pair that deforms a body, body by body, in the
 /// skin's joint order of the child (2021 Sec. 6; `PIPELINE.md`, "Working regions").
 ///
