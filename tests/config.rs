@@ -701,6 +701,22 @@ fn the_self_contact_table_parses_and_resolves() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// `joint_extent` sets `φ̄` per joint (the default, 1.75); `extent` or `extent_factor` set it in
+/// scene units for every joint instead.
+#[test]
+fn the_fold_extent_is_per_joint_unless_given_in_scene_units() {
+    use contact_skin::selfcontact::fold::DEFAULT_JOINT_EXTENT;
+    let dir = mouth_dir("joint-extent");
+    let default = resolve_self(&dir, "[self_contact]\n").expect("resolves");
+    assert_eq!(default.params.joint_extent, Some(DEFAULT_JOINT_EXTENT));
+    let own = resolve_self(&dir, "[self_contact]\njoint_extent = 1.25\n").expect("resolves");
+    assert_eq!(own.params.joint_extent, Some(1.25));
+    let fixed = resolve_self(&dir, "[self_contact]\nextent = 0.3\n").expect("resolves");
+    assert_eq!(fixed.params.joint_extent, None);
+    assert_eq!(fixed.params.deform.extent, 0.3);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn without_a_self_contact_table_the_pass_defaults_apply() {
     let dir = mouth_dir("self-defaults");
@@ -795,6 +811,18 @@ fn bad_self_contact_values_are_typed_errors_naming_the_field() {
         ),
         ("[self_contact]\ngamma = nan\n", "self_contact.gamma".into()),
         ("[self_contact]\nomega = -1\n", "self_contact.omega".into()),
+        (
+            "[self_contact]\njoint_extent = 0\n",
+            "self_contact.joint_extent".into(),
+        ),
+        (
+            "[self_contact]\njoint_extent = 1.5\nextent = 0.2\n",
+            "self_contact.joint_extent".into(),
+        ),
+        (
+            "[self_contact]\njoint_extent = 1.5\nextent_factor = 0.1\n",
+            "self_contact.joint_extent".into(),
+        ),
     ];
     let with_pair = [
         ("direction = [0, 0, 0]\n", "self_contact.pair[0].direction"),
