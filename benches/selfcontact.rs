@@ -116,6 +116,38 @@ fn bench(c: &mut Criterion) {
         });
     }
     g.finish();
+    batch(c);
+}
+
+/// Batch evaluation of the finger's animation (skinning + self-contact pass, default two
+/// sweeps, 31 frames in parallel as `pose` does): one thread against every core.
+fn batch(c: &mut Criterion) {
+    use rayon::prelude::*;
+    let mut g = c.benchmark_group("selfcontact batch");
+    g.measurement_time(Duration::from_secs(10)).sample_size(10);
+    let (rig, pre, pass, _) = setup("finger", 2);
+    let times = frames::sample_times(&rig, Some(0), Some(31));
+    for threads in [1, 2] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("pool");
+        g.bench_function(format!("finger/31 frames/{threads} thread(s)"), |b| {
+            b.iter(|| {
+                pool.install(|| {
+                    times
+                        .par_iter()
+                        .map(|&t| {
+                            let mut pos = welded(&rig, &pre, t, Some(0));
+                            let pose = rig.pose_at(Some(0), t);
+                            pass.run(&rig, &pose, &mut pos).expect("pass").folds.len()
+                        })
+                        .sum::<usize>()
+                })
+            })
+        });
+    }
+    g.finish();
 }
 
 criterion_group!(benches, bench);
