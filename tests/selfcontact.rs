@@ -215,43 +215,81 @@ fn mouth_closes() {
     );
 }
 
+/// The bending capsule's one fold, precomputed, for tests of single folds.
+struct CapsuleFold {
+    l: Loaded,
+    pre: contact_skin::selfcontact::fold::FoldPre,
+    axes: contact_skin::selfcontact::BoneAxes,
+    pair: contact_skin::selfcontact::JointPair,
+}
+
+/// One frame of [`CapsuleFold`]: the input, its normals, `d̂` and the fold (if any).
+struct FoldFrame {
+    input: Vec<Point3<f64>>,
+    normals: Vec<Vector3<f64>>,
+    direction: Vector3<f64>,
+    out: Option<contact_skin::selfcontact::fold::FoldOutput>,
+}
+
+impl CapsuleFold {
+    fn new() -> Self {
+        use contact_skin::selfcontact::{derive_pairs, fold::FoldPre, BoneAxes};
+        let l = load("bending_capsule", 31);
+        let rest = welded_positions(&l.rig, &l.pre, 0.0, None);
+        let pairs = derive_pairs(&l.rig, &l.pre.welded, &RegionOptions::default()).expect("pairs");
+        let regions = pairs.into_iter().next().expect("one pair");
+        let axes = BoneAxes::new(&l.rig, &l.pre.welded[0], &regions);
+        let pair = regions.pair.clone();
+        let pre = FoldPre::new(&rest[0], &l.triangles[0], regions).expect("fold");
+        Self { l, pre, axes, pair }
+    }
+
+    fn at(&self, f: usize, params: &FoldParams) -> FoldFrame {
+        use contact_skin::selfcontact::{fold::resolve_fold, skeleton_direction};
+        let l = &self.l;
+        let input = l.frame(f).swap_remove(0);
+        let pose = l.rig.pose_at(Some(0), l.times[f]);
+        let direction =
+            skeleton_direction(&l.rig, &pose, &self.pair, self.axes.leaf_axis).expect("direction");
+        let normals = vertex_normals(&input, &l.triangles[0], NormalWeighting::Area);
+        let out = resolve_fold(
+            &self.pre,
+            &input,
+            &normals,
+            &l.triangles[0],
+            direction,
+            params,
+        )
+        .expect("fold runs");
+        FoldFrame {
+            input,
+            normals,
+            direction,
+            out,
+        }
+    }
+}
+
 /// PIPELINE.md's check of the crease cut: it follows the fold, i.e. every vertex of a cut edge
 /// of the shared region lies within one ring of the silhouette of `R` seen from `d̂`
 /// (vertices where `n·d̂` changes sign along an edge). Measured on the bending capsule.
 #[test]
 fn crease_cut_follows_the_silhouette() {
-    use contact_skin::selfcontact::fold::{resolve_fold, FoldPre};
-    use contact_skin::selfcontact::{derive_pairs, skeleton_direction, BoneAxes};
-    let l = load("bending_capsule", 31);
-    let rest = welded_positions(&l.rig, &l.pre, 0.0, None);
-    let pairs = derive_pairs(&l.rig, &l.pre.welded, &RegionOptions::default()).expect("pairs");
-    let regions = pairs.into_iter().next().expect("one pair");
-    let axes = BoneAxes::new(&l.rig, &l.pre.welded[0], &regions);
-    let pair = regions.pair.clone();
-    let (w1, w2) = (regions.w1.clone(), regions.w2.clone());
-    let pre = FoldPre::new(&rest[0], &l.triangles[0], regions).expect("fold");
-    let mut worst = 0;
-    let mut cut_frames = 0;
+    let fold = CapsuleFold::new();
+    let r = &fold.pre.regions;
+    let shared: Vec<bool> = r.w1.iter().zip(&r.w2).map(|(a, b)| *a && *b).collect();
+    let (mut worst, mut cut_frames) = (0, 0);
     for f in [12, 18, 24, 30] {
-        let input = l.frame(f);
-        let pose = l.rig.pose_at(Some(0), l.times[f]);
-        let d = skeleton_direction(&l.rig, &pose, &pair, axes.leaf_axis).expect("direction");
-        let n = vertex_normals(&input[0], &l.triangles[0], NormalWeighting::Area);
-        let Some(out) = resolve_fold(
-            &pre,
-            &input[0],
-            &n,
-            &l.triangles[0],
-            d,
-            &FoldParams::default(),
-        )
-        .expect("fold runs") else {
-            continue;
-        };
+        let frame = fold.at(f, &FoldParams::default());
+        let Some(out) = frame.out else { continue };
         cut_frames += 1;
-        let shared: Vec<bool> = w1.iter().zip(&w2).map(|(a, b)| *a && *b).collect();
-        let dist =
-            crease_distance_to_silhouette(&l.triangles[0], &n, &out.crease.on_w1, &shared, &d);
+        let dist = crease_distance_to_silhouette(
+            &fold.l.triangles[0],
+            &frame.normals,
+            &out.crease.on_w1,
+            &shared,
+            &frame.direction,
+        );
         println!("frame {f}: crease vertices within {dist} rings of the silhouette");
         worst = worst.max(dist);
     }
@@ -333,23 +371,19 @@ fn bad_input_gives_typed_errors() {
 /// extent `φ̄` set to one capsule radius, as long as the extent floor `κ φ_I` stays below the
 /// joint's diameter: without bulge (γ = 0) up to 80°, with the bulge (γ = 1) up to 60°; past
 /// that the floor (or the bulge) reaches round the joint and the exterior moves, as it does
-/// at every angle with the default `φ̄` of 1 scene unit (five radii; see the issue note).
+/// at every angle with the default `φ̄` (1.75 × the joint's size, five radii here).
 #[test]
 fn exterior_of_the_joint_is_left_alone() {
-    use contact_skin::selfcontact::fold::{resolve_fold, FoldPre};
-    use contact_skin::selfcontact::{derive_pairs, skeleton_direction, BoneAxes};
-    let l = load("bending_capsule", 31);
-    let rest = welded_positions(&l.rig, &l.pre, 0.0, None);
-    let pairs = derive_pairs(&l.rig, &l.pre.welded, &RegionOptions::default()).expect("pairs");
-    let regions = pairs.into_iter().next().expect("one pair");
-    let axes = BoneAxes::new(&l.rig, &l.pre.welded[0], &regions);
-    let pair = regions.pair.clone();
+    let fold = CapsuleFold::new();
+    let (r, rest) = (
+        &fold.pre.regions,
+        welded_positions(&fold.l.rig, &fold.l.pre, 0.0, None),
+    );
     let exterior: Vec<usize> = (0..rest[0].len())
-        .filter(|&v| regions.w1[v] && regions.w2[v] && (regions.beta[v] - 0.5).abs() < 0.1)
+        .filter(|&v| r.w1[v] && r.w2[v] && (r.beta[v] - 0.5).abs() < 0.1)
         .filter(|&v| rest[0][v].x > 0.0)
         .collect();
     assert!(exterior.len() >= 8, "the capsule has an exterior band");
-    let pre = FoldPre::new(&rest[0], &l.triangles[0], regions).expect("fold");
     for (gamma, last) in [(0.0, 16), (1.0, 12)] {
         let mut params = FoldParams {
             joint_extent: None,
@@ -359,17 +393,12 @@ fn exterior_of_the_joint_is_left_alone() {
         params.deform.gamma = gamma;
         let mut folds = 0;
         for f in 0..=last {
-            let input = l.frame(f);
-            let pose = l.rig.pose_at(Some(0), l.times[f]);
-            let d = skeleton_direction(&l.rig, &pose, &pair, axes.leaf_axis).expect("direction");
-            let n = vertex_normals(&input[0], &l.triangles[0], NormalWeighting::Area);
-            let out =
-                resolve_fold(&pre, &input[0], &n, &l.triangles[0], d, &params).expect("fold runs");
-            let Some(out) = out else { continue };
+            let frame = fold.at(f, &params);
+            let Some(out) = frame.out else { continue };
             folds += 1;
             let moved = exterior
                 .iter()
-                .map(|&v| (out.positions[v] - input[0][v]).norm() / l.h_rest)
+                .map(|&v| (out.positions[v] - frame.input[v]).norm() / fold.l.h_rest)
                 .fold(0.0, f64::max);
             assert!(
                 moved < 0.01,
