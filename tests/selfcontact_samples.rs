@@ -52,7 +52,7 @@ fn real_characters_never_get_worse() {
             Some(0)
         };
         let times = frames::sample_times(&rig, anim, Some(21));
-        let (mut folded, mut before, mut after, mut vol) = (0, 0, 0, 0.0f64);
+        let (mut folded, mut before, mut after, mut vol, mut unbalanced) = (0, 0, 0, 0.0f64, 0);
         let mut turned = metrics::TurnedFaces::default();
         for (k, &t) in times.iter().enumerate() {
             let frame = frames::evaluate(&rig, &pre, anim, k, t);
@@ -61,6 +61,7 @@ fn real_characters_never_get_worse() {
             let pose = rig.pose_at(anim, t);
             let res = pass.run(&rig, &pose, &mut out).expect("self-contact runs");
             folded += usize::from(!res.folds.is_empty());
+            unbalanced += res.unbalanced;
             for (b, w) in pre.welded.iter().enumerate() {
                 assert_eq!(metrics::non_finite(&out[b]), 0, "{rel}: NaN");
                 let h = mean_edge_length(&rest[b], &w.triangles);
@@ -84,7 +85,7 @@ fn real_characters_never_get_worse() {
             }
         }
         println!(
-            "{rel}: pairs {}, frames with a fold {folded}/{}, penetrating vertices (summed over those frames) {before} -> {after}, faces turned (summed): input against skinning {}, output against input {}, against skinning {}, against both {} ({} buried), worst volume error {vol:.1e}",
+            "{rel}: pairs {}, frames with a fold {folded}/{}, penetrating vertices (summed over those frames) {before} -> {after}, faces turned (summed): input against skinning {}, output against input {}, against skinning {}, against both {} ({} buried), worst volume error {vol:.1e}, folds left unbalanced {unbalanced}",
             pass.pairs().len(),
             times.len(),
             turned.input_against_skinning,
@@ -97,5 +98,6 @@ fn real_characters_never_get_worse() {
             after <= before,
             "{rel}: self-contact made penetration worse ({before} -> {after})"
         );
+        assert!(vol < 1e-4, "{rel}: volume error {vol:.1e}");
     }
 }

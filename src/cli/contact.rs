@@ -240,6 +240,8 @@ pub struct FrameDiagnostics {
     pub folds: Vec<FoldDiagnostics>,
     /// Joint pairs skipped by the self-contact pass for want of a direction (full 180° fold).
     pub folds_without_direction: usize,
+    /// Folds left unresolved because no bulge could keep the volume.
+    pub folds_unbalanced: usize,
     /// Wall time of the self-contact pass (s; 0 when it is off).
     pub self_contact_s: f64,
 }
@@ -401,6 +403,7 @@ pub fn diagnostics(rig: &Rig, pre: &Precomputed, c: &ContactFrame) -> FrameDiagn
         timings_s: c.output.timings,
         folds,
         folds_without_direction: c.self_output.as_ref().map_or(0, |s| s.no_direction),
+        folds_unbalanced: c.self_output.as_ref().map_or(0, |s| s.unbalanced),
         self_contact_s: c.self_wall,
     }
 }

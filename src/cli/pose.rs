@@ -130,6 +130,8 @@ struct Summary {
     folds: Vec<String>,
     /// Joint pairs skipped for want of a direction (full 180° fold), summed over the frames.
     folds_without_direction: usize,
+    /// Folds left unresolved because no bulge could keep the volume, summed over the frames.
+    folds_unbalanced: usize,
     /// Median time of the self-contact pass per frame (ms), over all frames.
     self_contact_ms: Option<f64>,
     /// Median fold step times (ms) over the frames with a fold (each step summed over the
@@ -202,6 +204,7 @@ struct FrameStats {
     /// Summed fold timings and the self-contact pass's wall time (s), when it ran.
     fold_timings: Option<(FoldTimings, f64)>,
     folds_without_direction: usize,
+    folds_unbalanced: usize,
 }
 
 /// Runs `pose`.
@@ -358,6 +361,7 @@ fn summarize(
         fold_frames: stats.iter().filter(|s| !s.folds.is_empty()).count(),
         folds,
         folds_without_direction: stats.iter().map(|s| s.folds_without_direction).sum(),
+        folds_unbalanced: stats.iter().map(|s| s.folds_unbalanced).sum(),
         self_contact_ms: self_run.map(|_| median(self_walls)),
         fold_ms: self_run.map(|_| median_folds(&with_fold)),
     }
@@ -422,6 +426,12 @@ fn print_summary(s: &Summary, a: &Args) -> CliResult {
                 s.folds_without_direction
             );
         }
+        if s.folds_unbalanced > 0 {
+            println!(
+                "self-contact: {} fold(s) left unresolved: no bulge could keep the volume",
+                s.folds_unbalanced
+            );
+        }
     }
     Ok(())
 }
@@ -440,6 +450,7 @@ fn compute(job: &Job, i: usize, t: f64) -> Result<(Frame, FrameStats), String> {
             folds: Vec::new(),
             fold_timings: None,
             folds_without_direction: 0,
+            folds_unbalanced: 0,
         };
         return Ok((frame, stats));
     };
@@ -462,6 +473,7 @@ fn compute(job: &Job, i: usize, t: f64) -> Result<(Frame, FrameStats), String> {
         }),
         fold_timings: so.map(|s| (s.timings, cf.self_wall)),
         folds_without_direction: so.map_or(0, |s| s.no_direction),
+        folds_unbalanced: so.map_or(0, |s| s.unbalanced),
     };
     Ok((cf.frame, stats))
 }

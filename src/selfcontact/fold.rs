@@ -16,6 +16,7 @@ use crate::contact::{
     resolve_self_pair, Contact, ContactSide, DirectionMode, PairParams, SideFrame,
 };
 use crate::deform::region::{bulge_height, shape_region};
+use crate::deform::volume::RootKind;
 use crate::deform::{DeformParams, DeformStats, RegionFrame, WorkingRegion};
 use crate::heat::{Boundary, EdgePoint};
 use crate::intersect::{Intersections, MeshIndex};
@@ -43,6 +44,23 @@ pub enum FoldError {
     /// A region's analysis.
     #[error(transparent)]
     Solve(#[from] crate::solve::SolveError),
+}
+
+/// Relative volume change above which a fold that no bulge balances is left unresolved (see
+/// [`FoldOutput::unbalanced`]).
+pub const UNBALANCED_VOLUME: f64 = 1e-6;
+
+/// `|V(b) - V(a)| / |V(a)|` of a closed mesh (infinite when `V(a) = 0`).
+fn volume_change(triangles: &[[u32; 3]], a: &[Point3<f64>], b: &[Point3<f64>]) -> f64 {
+    let (va, vb) = (
+        crate::mesh::signed_volume(a, triangles),
+        crate::mesh::signed_volume(b, triangles),
+    );
+    if va == 0.0 {
+        f64::INFINITY
+    } else {
+        ((vb - va) / va).abs()
+    }
 }
 
 /// Default [`FoldParams::joint_extent`].
@@ -146,6 +164,13 @@ pub struct FoldOutput {
     pub stats: [DeformStats; 2],
     /// The common bulge height.
     pub bulge_height: f64,
+    /// How it was found (`None` for an open mesh: no volume to keep).
+    pub root: Option<RootKind>,
+    /// No bulge could keep the volume (no exact root of the cubic, e.g. a zone whose
+    /// region's extent is capped to nothing by its border) and the deformation changed it by
+    /// more than [`UNBALANCED_VOLUME`]: `positions` is the input (the fold is left unresolved
+    /// rather than resolved with a volume error; measured on CesiumMan: 7e-3).
+    pub unbalanced: bool,
     /// Each region's own deformation with the common bulge height, before the blend (`p'_1`,
     /// `p'_2`; whole mesh, unchanged outside the region).
     pub region_positions: [Vec<Point3<f64>>; 2],
@@ -357,17 +382,24 @@ pub fn resolve_fold(
         base[v] = Point3::from(s1.base[v].coords * b + s2.base[v].coords * (1.0 - b));
         bulge[v] = s1.bulge_unit[v] * b + s2.bulge_unit[v] * (1.0 - b);
     }
-    let h = if pre.closed {
-        bulge_height(triangles, positions, &base, &bulge)?.0
+    let (h, root) = if pre.closed {
+        let (h, kind) = bulge_height(triangles, positions, &base, &bulge)?;
+        (h, Some(kind))
     } else {
-        0.0
+        (0.0, None)
     };
     let gamma = params.deform.gamma;
-    let out: Vec<Point3<f64>> = base
+    let mut out: Vec<Point3<f64>> = base
         .iter()
         .zip(&bulge)
         .map(|(p, q)| p + q * (gamma * h))
         .collect();
+    let unbalanced = gamma != 0.0
+        && root.is_some_and(|k| k != RootKind::Exact)
+        && volume_change(triangles, positions, &out) > UNBALANCED_VOLUME;
+    if unbalanced {
+        out.copy_from_slice(positions);
+    }
     timings.volume = clock.elapsed().as_secs_f64() - t0;
     let own = |sh: &crate::deform::RegionDeformation| -> Vec<Point3<f64>> {
         sh.base
@@ -385,6 +417,8 @@ pub fn resolve_fold(
         sigma,
         stats: [s1.stats, s2.stats],
         bulge_height: h,
+        root,
+        unbalanced,
         timings,
     }))
 }
@@ -436,6 +470,13 @@ fn zones_to_the_crease(
     let length = length / region.edges.len().max(1) as f64;
     let nudge = 1e-3 * length;
     let inside = |v: usize| winding.query(&(positions[v] - normals[v] * nudge)) >= 1.5;
+    // Zones are extended, not created: a zone made of crease vertices alone can sit on the
+    // working region's border, where the extent is capped to nothing and no bulge can
+    // compensate (measured on CesiumMan: a one-vertex zone, volume error 7e-3).
+    let extendable = contact
+        .sides
+        .each_ref()
+        .map(|c| !c.zone.vertices.is_empty());
     for &[a, b] in &region.edges {
         let (va, vb) = (
             region.vertices[a as usize] as usize,
@@ -451,7 +492,7 @@ fn zones_to_the_crease(
             let own = usize::from(!on_w1[v]);
             let Some(k) = [own, 1 - own]
                 .into_iter()
-                .find(|&k| conditioned(&contact.sides[k], v, length))
+                .find(|&k| extendable[k] && conditioned(&contact.sides[k], v, length))
             else {
                 continue;
             };

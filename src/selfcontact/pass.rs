@@ -44,6 +44,9 @@ pub struct SelfPassOutput {
     pub timings: FoldTimings,
     /// Folds skipped because no direction exists (full 180° fold).
     pub no_direction: usize,
+    /// Folds left unresolved because no bulge could keep the volume
+    /// ([`crate::selfcontact::fold::FoldOutput::unbalanced`]).
+    pub unbalanced: usize,
 }
 
 /// Self-contact of every joint pair of a rig, precomputed once.
@@ -191,6 +194,7 @@ impl SelfContactPass {
                     source,
                 })?;
             if let Some(o) = result {
+                out.unbalanced += usize::from(o.unbalanced);
                 add(&mut out.timings, &o.timings);
                 positions[fold.body].clone_from(&o.positions);
                 out.folds.push(FoldReport {
