@@ -94,10 +94,11 @@ impl MeshIndex {
                 .filter(|&f| parts[f as usize] == label)
                 .collect()
         };
-        Ok([
-            Self::with_faces(rest_positions, triangles, &part(1))?,
-            Self::with_faces(rest_positions, triangles, &part(2))?,
-        ])
+        let (a, b) = rayon::join(
+            || Self::with_faces(rest_positions, triangles, &part(1)),
+            || Self::with_faces(rest_positions, triangles, &part(2)),
+        );
+        Ok([a?, b?])
     }
 
     /// All triangles of the mesh (vertex ids into the positions).

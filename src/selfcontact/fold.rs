@@ -362,8 +362,12 @@ pub fn resolve_fold(
         free_border: Some(&shared),
     };
     let deform = params.deform_at(pre);
-    let s1 = shape_region(&pre.w1, &frame, &deform)?;
-    let s2 = shape_region(&pre.w2, &frame, &deform)?;
+    // The two regions are independent until the blend.
+    let (s1, s2) = rayon::join(
+        || shape_region(&pre.w1, &frame, &deform),
+        || shape_region(&pre.w2, &frame, &deform),
+    );
+    let (s1, s2) = (s1?, s2?);
     timings.deformation = clock.elapsed().as_secs_f64() - t0;
     let t0 = clock.elapsed().as_secs_f64();
     let (mut base, mut bulge) = (positions.to_vec(), vec![Vector3::zeros(); positions.len()]);
