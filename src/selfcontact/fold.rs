@@ -63,6 +63,12 @@ fn volume_change(triangles: &[[u32; 3]], a: &[Point3<f64>], b: &[Point3<f64>]) -
     }
 }
 
+/// β of the fold's winding-number tree. Its queries only decide "inside twice" (a winding
+/// number of at least 1.5 between 1 and 2): at β = 1.5 the error stays below 0.03 (measured
+/// against the brute force near the surfaces of the bent finger and capsule; 0.39 at β = 1),
+/// and the contact step of the finger takes 9.8 ms instead of 11.2 at the metrics' β = 2.
+const INSIDE_BETA: f64 = 1.5;
+
 /// Default [`FoldParams::joint_extent`].
 pub const DEFAULT_JOINT_EXTENT: f64 = 1.75;
 
@@ -210,7 +216,8 @@ impl FoldPre {
         let detect = MeshIndex::self_contact_parts(rest, triangles, &labels)?;
         // Only the topology is needed here (no factorization of the whole mesh).
         let closed = crate::mesh::Region::whole(triangles).is_closed();
-        let winding = crate::report::metrics::WindingNumber::new(rest, triangles);
+        let winding =
+            crate::report::metrics::WindingNumber::with_beta(rest, triangles, INSIDE_BETA);
         let topology = CreaseTopology::new(triangles, &faces);
         let toward = border_sides(triangles, &regions);
         let joint_size = regions.joint_size(rest);
