@@ -446,9 +446,11 @@ fn cut_labels(triangles: &[[u32; 3]], faces: &[u32], on_w1: &[bool]) -> Vec<u8> 
     labels
 }
 
-/// Extends each side's contact zone to its vertices on the crease cut (next to the other side)
-/// that lie inside the other part (the generalized winding number of the whole mesh at the
-/// vertex nudged `10⁻³ h` inward is at least 1.5, as for `I_l`) and that the contact sampled.
+/// Extends the contact zones to the vertices of the crease cut (next to the other side) that
+/// lie inside the other part (the generalized winding number of the whole mesh at the vertex
+/// nudged `10⁻³ h` inward is at least 1.5, as for `I_l`): each joins the zone of its own side,
+/// else of the other side (a cut vertex belongs to faces of both parts), whose sample is
+/// [`conditioned`]; only a side that already has a zone is extended.
 ///
 /// Not in the paper. The threshold of Eq. 4 leaves out the shallow end of the intersection,
 /// which in a fold is its bottom: the two sides meet at the crease, where the depth goes to 0.
@@ -469,16 +471,7 @@ fn zones_to_the_crease(
     contact: &mut Contact,
 ) {
     let region = &pre.shared.solver.region;
-    let length: f64 = region
-        .edges
-        .iter()
-        .map(|&[a, b]| {
-            (positions[region.vertices[a as usize] as usize]
-                - positions[region.vertices[b as usize] as usize])
-                .norm()
-        })
-        .sum();
-    let length = length / region.edges.len().max(1) as f64;
+    let length = mean_edge_length(region, positions);
     let nudge = 1e-3 * length;
     let inside = |v: usize| winding.query(&(positions[v] - normals[v] * nudge)) >= 1.5;
     // Zones are extended, not created: a zone made of crease vertices alone can sit on the
@@ -517,6 +510,17 @@ fn zones_to_the_crease(
     for side in &mut contact.sides {
         side.zone.vertices.sort_unstable();
     }
+}
+
+/// Mean length of `region`'s edges at `positions` (mesh indexed).
+fn mean_edge_length(region: &crate::mesh::Region, positions: &[Point3<f64>]) -> f64 {
+    let at = |l: u32| positions[region.vertices[l as usize] as usize];
+    let sum: f64 = region
+        .edges
+        .iter()
+        .map(|&[a, b]| (at(a) - at(b)).norm())
+        .sum();
+    sum / region.edges.len().max(1) as f64
 }
 
 /// Whether `side`'s sample of `v` places it on `S` by a displacement that agrees with its
