@@ -147,7 +147,7 @@ pub struct FoldTimings {
     pub crease: f64,
     /// Contact surface and zones (Sec. 4.2-4.4).
     pub contact: f64,
-    /// Direction field `σ`.
+    /// The zones' extension to the crease and the direction field `σ`.
     pub directions: f64,
     /// Both regions' deformation (Sec. 5).
     pub deformation: f64,
@@ -284,25 +284,19 @@ pub fn resolve_fold(
 ) -> Result<Option<FoldOutput>, FoldError> {
     let mut timings = FoldTimings::default();
     let clock = Instant::now();
-    let parts = [
-        pre.detect[0].pose(positions)?,
-        pre.detect[1].pose(positions)?,
-    ];
-    let ints = Intersections::self_contact(&parts[0], &parts[1])?;
-    timings.detection = clock.elapsed().as_secs_f64();
-    if ints.is_empty() {
+    // Seconds since the previous lap.
+    let lap = |since: &mut f64| {
+        let now = clock.elapsed().as_secs_f64();
+        let step = now - *since;
+        *since = now;
+        step
+    };
+    let mut mark = 0.0;
+    let intersecting = intersecting_vertices(pre, positions, triangles)?;
+    timings.detection = lap(&mut mark);
+    let Some(intersecting) = intersecting else {
         return Ok(None);
-    }
-    let mut intersecting: Vec<u32> = ints
-        .segments
-        .iter()
-        .flat_map(|s| {
-            let (fa, fb) = (s.faces[0] as usize, s.faces[1] as usize);
-            triangles[fa].into_iter().chain(triangles[fb])
-        })
-        .collect();
-    intersecting.sort_unstable();
-    intersecting.dedup();
+    };
     let r = &pre.regions;
     let crease = crease_cut(
         &CreaseInput {
@@ -321,42 +315,20 @@ pub fn resolve_fold(
     )?;
     let labels = cut_labels(triangles, &pre.faces, &crease.on_w1);
     let truncated = MeshIndex::self_contact_parts(positions, triangles, &labels)?;
-    let posed = [truncated[0].pose(positions)?, truncated[1].pose(positions)?];
-    timings.crease = clock.elapsed().as_secs_f64() - timings.detection;
-    let pair = PairParams {
-        stiffness_a: params.stiffness_1,
-        tau: params.tau,
-        direction: DirectionMode::Fixed(direction),
-    };
-    let t0 = clock.elapsed().as_secs_f64();
+    timings.crease = lap(&mut mark);
     let mut winding = pre.winding.clone();
     let tree = winding.refit(positions, triangles).then_some(&winding);
-    let contact = resolve_self_pair(
-        SideFrame {
-            mesh: &posed[0],
-            normals,
-            hittable: None,
-        },
-        SideFrame {
-            mesh: &posed[1],
-            normals,
-            hittable: None,
-        },
-        &pair,
-        tree,
-    )?;
-    timings.contact = clock.elapsed().as_secs_f64() - t0;
+    let contact = truncated_contact(&truncated, positions, normals, direction, params, tree)?;
+    timings.contact = lap(&mut mark);
     let Some(mut contact) = contact else {
         return Ok(None);
     };
     if let Some(tree) = tree {
         zones_to_the_crease(pre, &crease.on_w1, positions, normals, tree, &mut contact);
     }
-    let t0 = clock.elapsed().as_secs_f64();
     let sigma = sigma_field(pre, positions, &contact)?;
     let field: Vec<Vector3<f64>> = sigma.iter().map(|s| direction * *s).collect();
-    timings.directions = clock.elapsed().as_secs_f64() - t0;
-    let t0 = clock.elapsed().as_secs_f64();
+    timings.directions = lap(&mut mark);
     let sides: Vec<&ContactSide> = contact.sides.iter().collect();
     let shared: Vec<bool> = r.w1.iter().zip(&r.w2).map(|(a, b)| *a && *b).collect();
     let frame = RegionFrame {
@@ -375,23 +347,113 @@ pub fn resolve_fold(
         || shape_region(&pre.w2, &frame, &deform),
     );
     let (s1, s2) = (s1?, s2?);
-    timings.deformation = clock.elapsed().as_secs_f64() - t0;
-    let t0 = clock.elapsed().as_secs_f64();
+    timings.deformation = lap(&mut mark);
+    let blended = blend_and_balance(pre, triangles, positions, [&s1, &s2], params.deform.gamma)?;
+    timings.volume = lap(&mut mark);
+    let gamma_h = params.deform.gamma * blended.h;
+    let own = |sh: &crate::deform::RegionDeformation| -> Vec<Point3<f64>> {
+        sh.base
+            .iter()
+            .zip(&sh.bulge_unit)
+            .map(|(p, q)| p + q * gamma_h)
+            .collect()
+    };
+    Ok(Some(FoldOutput {
+        region_positions: [own(&s1), own(&s2)],
+        positions: blended.positions,
+        crease,
+        contact,
+        sigma,
+        stats: [s1.stats, s2.stats],
+        bulge_height: blended.h,
+        root: blended.root,
+        unbalanced: blended.unbalanced,
+        timings,
+    }))
+}
+
+/// Detection with the rest partition: the vertices of the faces crossing the other part, or
+/// `None` when the fold does not intersect itself.
+fn intersecting_vertices(
+    pre: &FoldPre,
+    positions: &[Point3<f64>],
+    triangles: &[[u32; 3]],
+) -> Result<Option<Vec<u32>>, FoldError> {
+    let parts = [
+        pre.detect[0].pose(positions)?,
+        pre.detect[1].pose(positions)?,
+    ];
+    let ints = Intersections::self_contact(&parts[0], &parts[1])?;
+    if ints.is_empty() {
+        return Ok(None);
+    }
+    let mut vertices: Vec<u32> = ints
+        .segments
+        .iter()
+        .flat_map(|s| {
+            triangles[s.faces[0] as usize]
+                .into_iter()
+                .chain(triangles[s.faces[1] as usize])
+        })
+        .collect();
+    vertices.sort_unstable();
+    vertices.dedup();
+    Ok(Some(vertices))
+}
+
+/// Sec. 4.2-4.4 between the truncated parts, with the skeleton's (or the user's) direction.
+fn truncated_contact(
+    truncated: &[MeshIndex; 2],
+    positions: &[Point3<f64>],
+    normals: &[Vector3<f64>],
+    direction: Vector3<f64>,
+    params: &FoldParams,
+    tree: Option<&crate::report::metrics::WindingNumber>,
+) -> Result<Option<Contact>, FoldError> {
+    let posed = [truncated[0].pose(positions)?, truncated[1].pose(positions)?];
+    let side = |k: usize| SideFrame {
+        mesh: &posed[k],
+        normals,
+        hittable: None,
+    };
+    let pair = PairParams {
+        stiffness_a: params.stiffness_1,
+        tau: params.tau,
+        direction: DirectionMode::Fixed(direction),
+    };
+    Ok(resolve_self_pair(side(0), side(1), &pair, tree)?)
+}
+
+/// The blended pair and its one volume solve.
+struct Blended {
+    positions: Vec<Point3<f64>>,
+    h: f64,
+    root: Option<RootKind>,
+    unbalanced: bool,
+}
+
+/// Sec. 6: `P = β P_1 + (1 - β) P_2`, `Q` likewise, one bulge height `h_v` on the blended pair
+/// (closed meshes), `p' = P + γ h_v Q`; the input when no bulge can keep the volume
+/// ([`FoldOutput::unbalanced`]).
+fn blend_and_balance(
+    pre: &FoldPre,
+    triangles: &[[u32; 3]],
+    positions: &[Point3<f64>],
+    regions: [&crate::deform::RegionDeformation; 2],
+    gamma: f64,
+) -> Result<Blended, FoldError> {
+    let r = &pre.regions;
     let (mut base, mut bulge) = (positions.to_vec(), vec![Vector3::zeros(); positions.len()]);
     for v in 0..positions.len() {
-        let (in1, in2) = (r.w1[v], r.w2[v]);
-        if !(in1 || in2) {
-            continue;
-        }
-        let b = if in1 && in2 {
-            r.beta[v].clamp(0.0, 1.0)
-        } else if in1 {
-            1.0
-        } else {
-            0.0
+        let b = match (r.w1[v], r.w2[v]) {
+            (false, false) => continue,
+            (true, true) => r.beta[v].clamp(0.0, 1.0),
+            (true, false) => 1.0,
+            (false, true) => 0.0,
         };
-        base[v] = Point3::from(s1.base[v].coords * b + s2.base[v].coords * (1.0 - b));
-        bulge[v] = s1.bulge_unit[v] * b + s2.bulge_unit[v] * (1.0 - b);
+        base[v] =
+            Point3::from(regions[0].base[v].coords * b + regions[1].base[v].coords * (1.0 - b));
+        bulge[v] = regions[0].bulge_unit[v] * b + regions[1].bulge_unit[v] * (1.0 - b);
     }
     let (h, root) = if pre.closed {
         let (h, kind) = bulge_height(triangles, positions, &base, &bulge)?;
@@ -399,7 +461,6 @@ pub fn resolve_fold(
     } else {
         (0.0, None)
     };
-    let gamma = params.deform.gamma;
     let mut out: Vec<Point3<f64>> = base
         .iter()
         .zip(&bulge)
@@ -411,27 +472,12 @@ pub fn resolve_fold(
     if unbalanced {
         out.copy_from_slice(positions);
     }
-    timings.volume = clock.elapsed().as_secs_f64() - t0;
-    let own = |sh: &crate::deform::RegionDeformation| -> Vec<Point3<f64>> {
-        sh.base
-            .iter()
-            .zip(&sh.bulge_unit)
-            .map(|(p, q)| p + q * (gamma * h))
-            .collect()
-    };
-    let region_positions = [own(&s1), own(&s2)];
-    Ok(Some(FoldOutput {
-        region_positions,
+    Ok(Blended {
         positions: out,
-        crease,
-        contact,
-        sigma,
-        stats: [s1.stats, s2.stats],
-        bulge_height: h,
+        h,
         root,
         unbalanced,
-        timings,
-    }))
+    })
 }
 
 /// Face labels after the cut: a face of `W1 ∪ W2` goes to the side of at least two of its
