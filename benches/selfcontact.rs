@@ -122,6 +122,24 @@ fn bench(c: &mut Criterion) {
             })
         });
     }
+    // A frame before contact (frame 2 of 61): the pass should cost about the skinning alone.
+    for name in ["finger", "bending_capsule"] {
+        let (rig, pre, pass, times) = setup(name, 2);
+        let t = times[2];
+        let input = welded(&rig, &pre, t, Some(0));
+        let pose = rig.pose_at(Some(0), t);
+        g.bench_function(format!("{name}/frame without contact/skinning"), |b| {
+            b.iter(|| pool.install(|| black_box(welded(&rig, &pre, t, Some(0)))))
+        });
+        g.bench_function(format!("{name}/frame without contact/pass"), |b| {
+            b.iter(|| {
+                pool.install(|| {
+                    let mut pos = input.clone();
+                    black_box(pass.run(&rig, &pose, &mut pos).expect("pass"))
+                })
+            })
+        });
+    }
     g.finish();
     batch(c);
 }

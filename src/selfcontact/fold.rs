@@ -237,6 +237,18 @@ impl FoldPre {
     }
 }
 
+impl FoldPre {
+    /// Whether the fold intersects itself at `positions` (the detection step of
+    /// [`resolve_fold`], with the rest partition).
+    pub fn intersects(
+        &self,
+        positions: &[Point3<f64>],
+        triangles: &[[u32; 3]],
+    ) -> Result<bool, FoldError> {
+        Ok(intersecting_vertices(self, positions, triangles)?.is_some())
+    }
+}
+
 /// Per vertex of `R`: whether it is adjacent to `W1 \ R` and to `W2 \ R`.
 fn border_sides(triangles: &[[u32; 3]], r: &PairRegions) -> Vec<(bool, bool)> {
     let mut toward = vec![(false, false); r.w1.len()];
