@@ -13,8 +13,8 @@ use contact_skin::mesh::signed_volume;
 use contact_skin::report::metrics::{
     closest_point_on_triangle, hausdorff, inverted_faces, non_finite, point_triangle_distance,
     residual_penetration, residual_penetration_bodies, second_difference_ratio, solid_angle,
-    surface_distance, volume_error, winding_number, zone_distance, Body, InvertedFaces,
-    Penetration, WindingNumber,
+    surface_distance, turned_faces, volume_error, winding_number, zone_distance, Body,
+    InvertedFaces, Penetration, TurnedFaces, WindingNumber,
 };
 use nalgebra::{Point3, Rotation3, Vector3};
 use parry3d_f64::math::Vector as PVec;
@@ -899,4 +899,90 @@ fn refitted_winding_tree_matches_a_rebuilt_one() {
     let mut bad = moved.clone();
     bad[0].x = f64::NAN;
     assert!(!tree.refit(&bad, &s.1), "a NaN corner is refused");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Turned faces
+// ---------------------------------------------------------------------------------------------
+
+/// Unit normal of face `t`.
+fn face_normal(p: &[Point3<f64>], t: &[u32; 3]) -> Vector3<f64> {
+    let [a, b, c] = t.map(|v| p[v as usize]);
+    (b - a).cross(&(c - a)).normalize()
+}
+
+/// The mirror `z -> -z` of a face centred on the sphere's centre turns its normal against the
+/// input exactly where `n_z² < n_x² + n_y²` (the reflected, reversed normal is
+/// `(-n_x, -n_y, n_z)`): the count `turned_faces` must give, and none buried on a single
+/// sphere. A sphere whose skinned normals all point inward is turned in the input only.
+#[test]
+fn turned_faces_against_input_and_skinning() {
+    let (p, t) = icosphere(3, 1.0, Point3::origin());
+    let h = mean_edge_length(&p, &t);
+    let outward = vertex_normals(&p, &t, NormalWeighting::Area);
+    assert_eq!(
+        turned_faces(&t, &p, &p, &outward, h),
+        TurnedFaces::default(),
+        "nothing moved"
+    );
+    let inward: Vec<Vector3<f64>> = outward.iter().map(|n| -n).collect();
+    let r = turned_faces(&t, &p, &p, &inward, h);
+    assert_eq!(r.input_against_skinning, t.len());
+    assert_eq!(
+        (r.against_input, r.turned),
+        (0, 0),
+        "the input itself is not a fault"
+    );
+    let mirrored: Vec<Point3<f64>> = p.iter().map(|q| Point3::new(q.x, q.y, -q.z)).collect();
+    let expected = t
+        .iter()
+        .filter(|f| {
+            let n = face_normal(&p, f);
+            n.z * n.z < n.x * n.x + n.y * n.y
+        })
+        .count();
+    assert!(expected > t.len() / 4, "a band round the equator");
+    let r = turned_faces(&t, &p, &mirrored, &outward, h);
+    assert_eq!(r.against_input, expected);
+    assert_eq!(r.turned, expected);
+    assert_eq!(r.buried, 0, "a lone sphere has material on one side only");
+    assert_eq!(r.exposed(), expected);
+}
+
+/// A hollow ball (outer sphere outward, inner sphere inward: a cavity) whose inner sphere is
+/// mirrored `z -> -z`: the inner sphere now faces outward inside the outer one, so each of
+/// its turned faces has material on both sides (winding 1 in front, 2 behind): all buried.
+#[test]
+fn turned_faces_inside_material_are_buried() {
+    let (outer, to) = icosphere(3, 1.0, Point3::origin());
+    let (inner, ti) = icosphere(2, 0.5, Point3::origin());
+    let n = outer.len() as u32;
+    let mut p = outer.clone();
+    p.extend(&inner);
+    let mut t = to.clone();
+    t.extend(ti.iter().map(|f| [f[0] + n, f[2] + n, f[1] + n]));
+    let h = mean_edge_length(&p, &t);
+    let skinned = vertex_normals(&p, &t, NormalWeighting::Area);
+    let out: Vec<Point3<f64>> = p
+        .iter()
+        .enumerate()
+        .map(|(v, q)| {
+            if v < n as usize {
+                *q
+            } else {
+                Point3::new(q.x, q.y, -q.z)
+            }
+        })
+        .collect();
+    let expected = t[to.len()..]
+        .iter()
+        .filter(|f| {
+            let m = face_normal(&p, f);
+            m.z * m.z < m.x * m.x + m.y * m.y
+        })
+        .count();
+    let r = turned_faces(&t, &p, &out, &skinned, h);
+    assert_eq!(r.turned, expected);
+    assert_eq!(r.buried, expected);
+    assert_eq!(r.exposed(), 0);
 }
