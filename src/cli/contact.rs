@@ -416,33 +416,11 @@ pub fn diagnostics_file_name(index: usize) -> String {
 // ---------------------------------------------------------------------------------------------
 // Timings
 
-/// Median per-stage time in milliseconds (the paper's Table 1 columns).
-#[derive(Clone, Copy, Debug, Default, Serialize)]
-pub struct StageMs {
-    /// i.: intersection detection and regions.
-    pub intersection: f64,
-    /// m.: direction and mapping.
-    pub mapping: f64,
-    /// c.: potential surface and contact zones.
-    pub zones: f64,
-    /// p.: parametrization.
-    pub parametrization: f64,
-    /// di.: direction field.
-    pub directions: f64,
-    /// g.: amplitude and slope diffusion.
-    pub fields: f64,
-    /// de.: profiles, bulge, volume, displacement.
-    pub deformation: f64,
-    /// s.: numeric factorizations (part of p., di. and g.).
-    pub factorization: f64,
-    /// The whole pass.
-    pub wall: f64,
-}
-
-/// Median of each stage over `timings` (in ms).
-pub fn median_stages(timings: &[StageTimings]) -> StageMs {
+/// Median of each stage over `timings`, in ms (the paper's Table 1 columns).
+pub fn median_stages(timings: &[StageTimings]) -> StageTimings {
     let m = |f: fn(&StageTimings) -> f64| median(timings.iter().map(f).collect()) * 1e3;
-    StageMs {
+    StageTimings {
+        setup: m(|t| t.setup),
         intersection: m(|t| t.intersection),
         mapping: m(|t| t.mapping),
         zones: m(|t| t.zones),
@@ -455,22 +433,13 @@ pub fn median_stages(timings: &[StageTimings]) -> StageMs {
     }
 }
 
-/// Median time per step of the folds in milliseconds (the fields of [`FoldTimings`], summed
-/// over the folds of a frame), and `wall`, the whole self-contact pass.
+/// Median fold step times in ms: each step of [`FoldTimings`] summed over the folds of a frame,
+/// and `wall`, the whole self-contact pass of the frame.
 #[derive(Clone, Copy, Debug, Default, Serialize)]
 pub struct FoldMs {
-    /// Detection with the rest partition.
-    pub detection: f64,
-    /// Crease cut and truncated parts.
-    pub crease: f64,
-    /// Contact surface and zones.
-    pub contact: f64,
-    /// Direction field `σ`.
-    pub directions: f64,
-    /// Both regions' deformation.
-    pub deformation: f64,
-    /// Blend and volume.
-    pub volume: f64,
+    /// The steps.
+    #[serde(flatten)]
+    pub steps: FoldTimings,
     /// The whole self-contact pass of the frame.
     pub wall: f64,
 }
@@ -480,12 +449,14 @@ pub struct FoldMs {
 pub fn median_folds(frames: &[(FoldTimings, f64)]) -> FoldMs {
     let m = |f: fn(&(FoldTimings, f64)) -> f64| median(frames.iter().map(f).collect()) * 1e3;
     FoldMs {
-        detection: m(|t| t.0.detection),
-        crease: m(|t| t.0.crease),
-        contact: m(|t| t.0.contact),
-        directions: m(|t| t.0.directions),
-        deformation: m(|t| t.0.deformation),
-        volume: m(|t| t.0.volume),
+        steps: FoldTimings {
+            detection: m(|t| t.0.detection),
+            crease: m(|t| t.0.crease),
+            contact: m(|t| t.0.contact),
+            directions: m(|t| t.0.directions),
+            deformation: m(|t| t.0.deformation),
+            volume: m(|t| t.0.volume),
+        },
         wall: m(|t| t.1),
     }
 }

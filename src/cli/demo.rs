@@ -7,15 +7,14 @@
 //! single-body scenes (bending capsule with LBS and CoR input, finger, mouth) go through the
 //! self-contact pass the same way, with the inverted faces at the deepest frame.
 
-use super::contact::{
-    self, median, median_folds, median_stages, ContactFrame, ContactRun, FoldMs, StageMs,
-};
+use super::contact::{self, median, median_folds, median_stages, ContactFrame, ContactRun, FoldMs};
 use super::CliResult;
 use contact_skin::config;
 use contact_skin::frames::{self, Frame, Precomputed};
 use contact_skin::mesh::operators::{mean_edge_length, vertex_normals, NormalWeighting};
 use contact_skin::mesh::signed_volume;
 use contact_skin::output::{self, glb, obj};
+use contact_skin::pass::StageTimings;
 use contact_skin::report::metrics;
 use contact_skin::rig::{self, Rig};
 use contact_skin::scenes::{self, Scene};
@@ -136,7 +135,7 @@ struct ContactResult {
     /// Median time per frame: skinning and contact pass (ms).
     median_frame_ms: f64,
     /// Median per-stage time of the pass (ms).
-    stage_ms: StageMs,
+    stage_ms: StageTimings,
     glb: String,
     obj: String,
     /// The contact configuration used (`<out>/rigs/<scene>.contact.toml` when present).

@@ -2,9 +2,7 @@
 //! object pass, then the self-contact pass; unless `--no-contact`) and writes the frames (and,
 //! with `--diagnostics`, the passes' fields).
 
-use super::contact::{
-    self, median, median_folds, median_stages, BoxError, ContactRun, FoldMs, StageMs,
-};
+use super::contact::{self, median, median_folds, median_stages, BoxError, ContactRun, FoldMs};
 use super::CliResult;
 use contact_skin::frames::{self, Frame, Precomputed};
 use contact_skin::output::{self, glb, obj};
@@ -117,7 +115,7 @@ struct Summary {
     total_ms: f64,
     median_frame_ms: f64,
     /// Median per-stage time of the contact pass (ms), over all frames.
-    stage_ms: Option<StageMs>,
+    stage_ms: Option<StageTimings>,
     /// Whether the self-contact pass ran.
     self_contact: bool,
     /// Why it did not although asked for (it cannot be built on this rig; a warning).
@@ -412,12 +410,12 @@ fn print_summary(s: &Summary, a: &Args) -> CliResult {
             s.self_contact_pairs.len(),
             s.fold_frames,
             s.frames,
-            t.detection,
-            t.crease,
-            t.contact,
-            t.directions,
-            t.deformation,
-            t.volume,
+            t.steps.detection,
+            t.steps.crease,
+            t.steps.contact,
+            t.steps.directions,
+            t.steps.deformation,
+            t.steps.volume,
             t.wall
         );
         if s.folds_without_direction > 0 {
