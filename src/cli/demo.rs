@@ -276,27 +276,65 @@ fn run_contact(
 }
 
 /// Frames in contact, penetration at the deepest input frame, volume error and timings.
+/// A penetration measure of all bodies: positions, triangles, `h`.
+type PenetrationOf = fn(&[Vec<Point3<f64>>], &[&[[u32; 3]]], f64) -> PenetrationRow;
+
+/// What both measurements share: the mean rest edge length `h`, the welded inputs, the
+/// penetration of every input (by `measure`), the deepest input frame and the worst volume
+/// change of the output against its input.
+struct Measured<'a> {
+    tris: Vec<&'a [[u32; 3]]>,
+    h: f64,
+    inputs: Vec<Vec<Vec<Point3<f64>>>>,
+    before: Vec<PenetrationRow>,
+    deepest: usize,
+    worst_volume_error: f64,
+}
+
+impl<'a> Measured<'a> {
+    fn new(
+        rig: &Rig,
+        pre: &'a Precomputed,
+        timed: &[(ContactFrame, f64)],
+        measure: PenetrationOf,
+    ) -> Self {
+        let rest = frames::welded_positions(rig, pre, None, 0.0);
+        let tris: Vec<&[[u32; 3]]> = pre.welded.iter().map(|w| w.triangles.as_slice()).collect();
+        let h = rest
+            .iter()
+            .zip(&tris)
+            .map(|(p, t)| mean_edge_length(p, t))
+            .sum::<f64>()
+            / rest.len().max(1) as f64;
+        let inputs: Vec<Vec<Vec<Point3<f64>>>> =
+            timed.iter().map(|(f, _)| f.input.welded(pre)).collect();
+        let before: Vec<PenetrationRow> = inputs.par_iter().map(|p| measure(p, &tris, h)).collect();
+        let deepest = deepest_frame(&before);
+        let worst_volume_error = timed
+            .iter()
+            .zip(&inputs)
+            .map(|((f, _), input)| volume_error(input, f, &tris))
+            .fold(0.0, f64::max);
+        Self {
+            tris,
+            h,
+            inputs,
+            before,
+            deepest,
+            worst_volume_error,
+        }
+    }
+}
+
 fn measure(rig: &Rig, pre: &Precomputed, timed: &[(ContactFrame, f64)]) -> ContactResult {
-    let rest = frames::welded_positions(rig, pre, None, 0.0);
-    let tris: Vec<&[[u32; 3]]> = pre.welded.iter().map(|w| w.triangles.as_slice()).collect();
-    let h = rest
-        .iter()
-        .zip(&tris)
-        .map(|(p, t)| mean_edge_length(p, t))
-        .sum::<f64>()
-        / rest.len().max(1) as f64;
-    let inputs: Vec<Vec<Vec<Point3<f64>>>> =
-        timed.iter().map(|(f, _)| f.input.welded(pre)).collect();
-    let before: Vec<PenetrationRow> = inputs
-        .par_iter()
-        .map(|p| penetration(p, &tris, h))
-        .collect();
-    let deepest = deepest_frame(&before);
-    let worst_volume_error = timed
-        .iter()
-        .zip(&inputs)
-        .map(|((f, _), input)| volume_error(input, f, &tris))
-        .fold(0.0, f64::max);
+    let Measured {
+        tris,
+        h,
+        before,
+        deepest,
+        worst_volume_error,
+        ..
+    } = Measured::new(rig, pre, timed, penetration);
     ContactResult {
         animation: String::new(),
         frames: timed.len(),
@@ -410,26 +448,14 @@ fn run_self_contact(
         &posed,
         &format!("demo, {method} + self-contact"),
     )?;
-    let rest = frames::welded_positions(rig, &pre, None, 0.0);
-    let tris: Vec<&[[u32; 3]]> = pre.welded.iter().map(|w| w.triangles.as_slice()).collect();
-    let h = rest
-        .iter()
-        .zip(&tris)
-        .map(|(p, t)| mean_edge_length(p, t))
-        .sum::<f64>()
-        / rest.len().max(1) as f64;
-    let inputs: Vec<Vec<Vec<Point3<f64>>>> =
-        timed.iter().map(|(f, _)| f.input.welded(&pre)).collect();
-    let before: Vec<PenetrationRow> = inputs
-        .par_iter()
-        .map(|p| self_penetration(p, &tris, h))
-        .collect();
-    let deepest = deepest_frame(&before);
-    let worst_volume_error = timed
-        .iter()
-        .zip(&inputs)
-        .map(|((f, _), input)| volume_error(input, f, &tris))
-        .fold(0.0, f64::max);
+    let Measured {
+        tris,
+        h,
+        inputs,
+        before,
+        deepest,
+        worst_volume_error,
+    } = Measured::new(rig, &pre, &timed, self_penetration);
     let (after, turned) = match (timed.get(deepest), inputs.get(deepest)) {
         (Some((f, _)), Some(input)) => (
             self_penetration(&f.positions, &tris, h),
