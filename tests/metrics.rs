@@ -24,52 +24,15 @@ use rayon::prelude::*;
 
 #[path = "common/meshes.rs"]
 mod meshes;
+#[path = "common/rng.rs"]
+mod rng;
+use rng::Rng;
 
 type Mesh = (Vec<Point3<f64>>, Vec<[u32; 3]>);
 
 // ---------------------------------------------------------------------------------------------
 // Generators
 // ---------------------------------------------------------------------------------------------
-
-/// Small deterministic generator (SplitMix64).
-struct Rng(u64);
-
-impl Rng {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in `[lo, hi)`.
-    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
-    }
-
-    fn point_in_box(&mut self, lo: f64, hi: f64) -> Point3<f64> {
-        Point3::new(
-            self.uniform(lo, hi),
-            self.uniform(lo, hi),
-            self.uniform(lo, hi),
-        )
-    }
-
-    fn unit_vector(&mut self) -> Vector3<f64> {
-        loop {
-            let v = Vector3::new(
-                self.uniform(-1.0, 1.0),
-                self.uniform(-1.0, 1.0),
-                self.uniform(-1.0, 1.0),
-            );
-            let n = v.norm();
-            if n > 0.1 && n <= 1.0 {
-                return v / n;
-            }
-        }
-    }
-}
 
 /// Icosphere: `level` midpoint subdivisions of an icosahedron (20·4^level faces), outward CCW,
 /// scaled to `radius` about `center` (the shared generator of `tests/common/meshes.rs`).
@@ -196,9 +159,9 @@ fn check_fast_winding(name: &str, m: &Mesh, inside: impl Fn(&Point3<f64>) -> Opt
         let s = if k % 10 == 0 {
             0.0
         } else {
-            rng.uniform(0.0, 0.5 * h)
+            rng.range(0.0, 0.5 * h)
         };
-        qs.push(v + rng.unit_vector() * s);
+        qs.push(v + rng.unit() * s);
     }
     let w_fast = fast.query_many(&qs);
     let results: Vec<(f64, f64, f64)> = qs
