@@ -11,25 +11,35 @@ use nalgebra::Vector3;
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
 
-/// A fresh temporary folder holding a copy of `rigs/fingertips_ball.glb` (bodies `ball` 1514
-/// vertices, `thumb`, `index`, `middle` 402 each).
-fn scene_dir(name: &str) -> PathBuf {
+/// A fresh temporary folder holding a copy of the committed rig `rigs/{rig}.glb`.
+fn rig_dir(rig: &str, name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("cs-config-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).expect("temp dir");
-    let rig = Path::new(env!("CARGO_MANIFEST_DIR")).join("rigs/fingertips_ball.glb");
-    std::fs::copy(rig, d.join("fingertips_ball.glb")).expect("copy rig");
+    let from = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("rigs/{rig}.glb"));
+    std::fs::copy(from, d.join(format!("{rig}.glb"))).expect("copy rig");
     d
 }
 
-fn load_rig(dir: &Path) -> (Rig, Vec<WeldedMesh>) {
-    let rig = rig::load(&dir.join("fingertips_ball.glb")).expect("rig loads");
+/// The rig `{rig}.glb` of `dir` and its welded bodies.
+fn load_rig_named(dir: &Path, rig: &str) -> (Rig, Vec<WeldedMesh>) {
+    let rig = rig::load(&dir.join(format!("{rig}.glb"))).expect("rig loads");
     let welded = rig
         .bodies
         .iter()
         .map(|b| WeldedMesh::weld(&b.positions, &b.triangles))
         .collect();
     (rig, welded)
+}
+
+/// A copy of `rigs/fingertips_ball.glb` (bodies `ball` 1514 vertices, `thumb`, `index`,
+/// `middle` 402 each).
+fn scene_dir(name: &str) -> PathBuf {
+    rig_dir("fingertips_ball", name)
+}
+
+fn load_rig(dir: &Path) -> (Rig, Vec<WeldedMesh>) {
+    load_rig_named(dir, "fingertips_ball")
 }
 
 /// Writes `text` as `dir/contact.toml` and loads it.
@@ -603,25 +613,14 @@ use contact_skin::selfcontact::fold::FoldParams;
 use contact_skin::selfcontact::pass::DEFAULT_FOLD_PASSES;
 use contact_skin::selfcontact::RegionOptions;
 
-/// A fresh temporary folder holding a copy of `rigs/mouth.glb` (body `lips`, joints `head`
-/// and `jaw`: one derived pair, `lips/head-jaw`).
+/// A copy of `rigs/mouth.glb` (body `lips`, joints `head` and `jaw`: one derived pair,
+/// `lips/head-jaw`).
 fn mouth_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("cs-config-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).expect("temp dir");
-    let rig = Path::new(env!("CARGO_MANIFEST_DIR")).join("rigs/mouth.glb");
-    std::fs::copy(rig, d.join("mouth.glb")).expect("copy rig");
-    d
+    rig_dir("mouth", name)
 }
 
 fn load_mouth(dir: &Path) -> (Rig, Vec<WeldedMesh>) {
-    let rig = rig::load(&dir.join("mouth.glb")).expect("rig loads");
-    let welded = rig
-        .bodies
-        .iter()
-        .map(|b| WeldedMesh::weld(&b.positions, &b.triangles))
-        .collect();
-    (rig, welded)
+    load_rig_named(dir, "mouth")
 }
 
 fn resolve_self(dir: &Path, text: &str) -> Result<SelfContactSettings, ConfigError> {
