@@ -237,15 +237,31 @@ impl FoldPre {
     }
 }
 
+/// The detection step of a fold: the vertices of the faces crossing the other part (rest
+/// partition), and how long it took.
+#[derive(Clone, Debug)]
+pub struct Detection {
+    /// Vertices of the crossed faces, sorted.
+    pub vertices: Vec<u32>,
+    /// Seconds.
+    pub seconds: f64,
+}
+
 impl FoldPre {
-    /// Whether the fold intersects itself at `positions` (the detection step of
-    /// [`resolve_fold`], with the rest partition).
-    pub fn intersects(
+    /// Detection with the rest partition: `None` when the fold does not intersect itself at
+    /// `positions` (then nothing else of the fold needs computing, not even normals).
+    pub fn detect(
         &self,
         positions: &[Point3<f64>],
         triangles: &[[u32; 3]],
-    ) -> Result<bool, FoldError> {
-        Ok(intersecting_vertices(self, positions, triangles)?.is_some())
+    ) -> Result<Option<Detection>, FoldError> {
+        let clock = Instant::now();
+        Ok(
+            intersecting_vertices(self, positions, triangles)?.map(|vertices| Detection {
+                vertices,
+                seconds: clock.elapsed().as_secs_f64(),
+            }),
+        )
     }
 }
 
@@ -294,7 +310,26 @@ pub fn resolve_fold(
     direction: Vector3<f64>,
     params: &FoldParams,
 ) -> Result<Option<FoldOutput>, FoldError> {
-    let mut timings = FoldTimings::default();
+    match pre.detect(positions, triangles)? {
+        Some(d) => resolve_detected(pre, &d, positions, normals, triangles, direction, params),
+        None => Ok(None),
+    }
+}
+
+/// [`resolve_fold`] after [`FoldPre::detect`] found the fold intersecting itself.
+pub fn resolve_detected(
+    pre: &FoldPre,
+    detection: &Detection,
+    positions: &[Point3<f64>],
+    normals: &[Vector3<f64>],
+    triangles: &[[u32; 3]],
+    direction: Vector3<f64>,
+    params: &FoldParams,
+) -> Result<Option<FoldOutput>, FoldError> {
+    let mut timings = FoldTimings {
+        detection: detection.seconds,
+        ..FoldTimings::default()
+    };
     let clock = Instant::now();
     // Seconds since the previous lap.
     let lap = |since: &mut f64| {
@@ -304,11 +339,7 @@ pub fn resolve_fold(
         step
     };
     let mut mark = 0.0;
-    let intersecting = intersecting_vertices(pre, positions, triangles)?;
-    timings.detection = lap(&mut mark);
-    let Some(intersecting) = intersecting else {
-        return Ok(None);
-    };
+    let intersecting = &detection.vertices;
     let r = &pre.regions;
     let crease = crease_cut(
         &CreaseInput {
@@ -320,7 +351,7 @@ pub fn resolve_fold(
             w2: &r.w2,
             beta: &r.beta,
             direction,
-            intersecting: &intersecting,
+            intersecting,
             topology: Some(&pre.topology),
         },
         &params.crease,

@@ -5,7 +5,7 @@
 //! per pair.
 
 use super::direction::{skeleton_direction, BoneAxes};
-use super::fold::{resolve_fold, FoldError, FoldOutput, FoldParams, FoldPre, FoldTimings};
+use super::fold::{resolve_detected, FoldError, FoldOutput, FoldParams, FoldPre, FoldTimings};
 use super::regions::{derive_pairs, RegionOptions};
 use super::SelfContactError;
 use crate::mesh::operators::{vertex_normals, NormalWeighting};
@@ -208,13 +208,20 @@ impl SelfContactPass {
             source,
         };
         // Detection first: a joint that does not fold into itself costs its detection only.
-        if !fold.pre.intersects(pos, tris).map_err(fail)? {
+        let Some(detection) = fold.pre.detect(pos, tris).map_err(fail)? else {
             return Ok(false);
-        }
+        };
         let normals = vertex_normals(pos, tris, NormalWeighting::Area);
-        let Some(o) =
-            resolve_fold(&fold.pre, pos, &normals, tris, direction, &self.params).map_err(fail)?
-        else {
+        let resolved = resolve_detected(
+            &fold.pre,
+            &detection,
+            pos,
+            &normals,
+            tris,
+            direction,
+            &self.params,
+        );
+        let Some(o) = resolved.map_err(fail)? else {
             return Ok(false);
         };
         out.unbalanced += usize::from(o.unbalanced);
