@@ -20,7 +20,7 @@ use crate::intersect::{
     IntersectError, IntersectionRegion, IntersectionStats, Intersections, PosedMesh, Side,
 };
 pub use mapping::{Mapping, MappingRegion, MappingStats, SideFrame};
-use nalgebra::Vector3;
+use nalgebra::{Point3, Vector3};
 use std::time::Instant;
 pub use zones::{SurfaceSample, Zone, ZoneBoundaryPoint};
 
@@ -369,6 +369,18 @@ fn near_region(mesh: &PosedMesh, region: &IntersectionRegion, reach: f64) -> Vec
         .collect()
 }
 
+/// Whether a point of a closed body with unit normal `n` lies inside it twice over (inside its
+/// own side and inside another part of the same body): the generalized winding number of the
+/// body at the point nudged `10⁻³ h` inward is at least 1.5.
+pub fn inside_twice(
+    winding: &crate::report::metrics::WindingNumber,
+    p: &Point3<f64>,
+    n: &Vector3<f64>,
+    h: f64,
+) -> bool {
+    winding.query(&(p - n * (1e-3 * h))) >= 1.5
+}
+
 /// Self-contact: the truncated parts are open surfaces whose intersection curves usually end
 /// at the crease cut, so the flood fill of [`IntersectionRegion`] has nothing to stop it.
 /// Instead, a vertex of a part is in `I_l` when it lies inside the closed body twice over:
@@ -396,8 +408,12 @@ fn inside_by_winding(
     for (k, (part, region)) in parts.iter().zip(regions.iter_mut()).enumerate() {
         let index = part.mesh.index();
         let is_inside = |v: u32| {
-            let q = positions[v as usize] - part.normals[v as usize] * (1e-3 * h);
-            winding.query(&q) >= 1.5
+            inside_twice(
+                winding,
+                &positions[v as usize],
+                &part.normals[v as usize],
+                h,
+            )
         };
         // Every component of I_l touches the intersection curve: search from the corners of
         // the crossed faces, across edges, expanding only from vertices found inside.

@@ -13,7 +13,7 @@
 use super::crease::{crease_cut, Crease, CreaseInput, CreaseParams, CreaseTopology};
 use super::regions::PairRegions;
 use crate::contact::{
-    resolve_self_pair, Contact, ContactSide, DirectionMode, PairParams, SideFrame,
+    inside_twice, resolve_self_pair, Contact, ContactSide, DirectionMode, PairParams, SideFrame,
 };
 use crate::deform::region::{bulge_height, shape_region};
 use crate::deform::volume::RootKind;
@@ -49,19 +49,6 @@ pub enum FoldError {
 /// Relative volume change above which a fold that no bulge balances is left unresolved (see
 /// [`FoldOutput::unbalanced`]).
 pub const UNBALANCED_VOLUME: f64 = 1e-6;
-
-/// `|V(b) - V(a)| / |V(a)|` of a closed mesh (infinite when `V(a) = 0`).
-fn volume_change(triangles: &[[u32; 3]], a: &[Point3<f64>], b: &[Point3<f64>]) -> f64 {
-    let (va, vb) = (
-        crate::mesh::signed_volume(a, triangles),
-        crate::mesh::signed_volume(b, triangles),
-    );
-    if va == 0.0 {
-        f64::INFINITY
-    } else {
-        ((vb - va) / va).abs()
-    }
-}
 
 /// β of the fold's winding-number tree. Its queries only decide "inside twice" (a winding
 /// number of at least 1.5 between 1 and 2): at β = 1.5 the error stays below 0.03 (measured
@@ -511,7 +498,10 @@ fn blend_and_balance(
         .collect();
     let unbalanced = gamma != 0.0
         && root.is_some_and(|k| k != RootKind::Exact)
-        && volume_change(triangles, positions, &out) > UNBALANCED_VOLUME;
+        && crate::report::metrics::volume_error(
+            crate::mesh::signed_volume(positions, triangles),
+            crate::mesh::signed_volume(&out, triangles),
+        ) > UNBALANCED_VOLUME;
     if unbalanced {
         out.copy_from_slice(positions);
     }
@@ -536,8 +526,7 @@ fn cut_labels(triangles: &[[u32; 3]], faces: &[u32], on_w1: &[bool]) -> Vec<u8> 
 }
 
 /// Extends the contact zones to the vertices of the crease cut (next to the other side) that
-/// lie inside the other part (the generalized winding number of the whole mesh at the vertex
-/// nudged `10⁻³ h` inward is at least 1.5, as for `I_l`): each joins the zone of its own side,
+/// lie inside the other part ([`inside_twice`], as for `I_l`): each joins the zone of its own side,
 /// else of the other side (a cut vertex belongs to faces of both parts), whose sample is
 /// [`conditioned`]; only a side that already has a zone is extended.
 ///
@@ -561,8 +550,7 @@ fn zones_to_the_crease(
 ) {
     let region = &pre.shared.solver.region;
     let length = mean_edge_length(region, positions);
-    let nudge = 1e-3 * length;
-    let inside = |v: usize| winding.query(&(positions[v] - normals[v] * nudge)) >= 1.5;
+    let inside = |v: usize| inside_twice(winding, &positions[v], &normals[v], length);
     // Zones are extended, not created: a zone made of crease vertices alone can sit on the
     // working region's border, where the extent is capped to nothing and no bulge can
     // compensate (measured on CesiumMan: a one-vertex zone, volume error 7e-3).
