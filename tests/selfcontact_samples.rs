@@ -72,12 +72,8 @@ fn real_characters_never_get_worse() {
                 if res.folds.iter().any(|f| f.body == b) {
                     before += pen(&input[b]);
                     after += pen(&out[b]);
-                    let f = metrics::turned_faces(&w.triangles, &input[b], &out[b], &skinned[b], h);
-                    turned.input_against_skinning += f.input_against_skinning;
-                    turned.against_input += f.against_input;
-                    turned.against_skinning += f.against_skinning;
-                    turned.turned += f.turned;
-                    turned.buried += f.buried;
+                    turned +=
+                        metrics::turned_faces(&w.triangles, &input[b], &out[b], &skinned[b], h);
                     let v0 = contact_skin::mesh::signed_volume(&input[b], &w.triangles);
                     let v1 = contact_skin::mesh::signed_volume(&out[b], &w.triangles);
                     vol = vol.max(metrics::volume_error(v0, v1));

@@ -686,12 +686,7 @@ fn turned_faces(
 ) -> metrics::TurnedFaces {
     let mut sum = metrics::TurnedFaces::default();
     for (b, t) in tris.iter().enumerate() {
-        let f = metrics::turned_faces(t, &input[b], &output[b], &skinned[b], h);
-        sum.input_against_skinning += f.input_against_skinning;
-        sum.against_input += f.against_input;
-        sum.against_skinning += f.against_skinning;
-        sum.turned += f.turned;
-        sum.buried += f.buried;
+        sum += metrics::turned_faces(t, &input[b], &output[b], &skinned[b], h);
     }
     sum
 }

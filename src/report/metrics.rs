@@ -1148,6 +1148,17 @@ pub struct TurnedFaces {
     pub buried: usize,
 }
 
+impl std::ops::AddAssign for TurnedFaces {
+    /// Counts of several bodies or frames, summed.
+    fn add_assign(&mut self, o: Self) {
+        self.input_against_skinning += o.input_against_skinning;
+        self.against_input += o.against_input;
+        self.against_skinning += o.against_skinning;
+        self.turned += o.turned;
+        self.buried += o.buried;
+    }
+}
+
 impl TurnedFaces {
     /// Turned faces that can be seen from outside the body.
     pub fn exposed(&self) -> usize {
