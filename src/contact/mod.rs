@@ -200,9 +200,10 @@ fn resolve(
     let masks;
     let (a, b) = match surfaces {
         Surfaces::PartsOfOneMesh(tree) => {
-            inside_by_winding([a, b], &ints, tree, &mut regions);
+            // The whole body's mean edge length (both parts index the same mesh).
             let h =
                 crate::mesh::operators::mean_edge_length(a.mesh.positions(), a.mesh.triangles());
+            inside_by_winding([a, b], &ints, tree, h, &mut regions);
             masks = [
                 near_region(a.mesh, &regions[0], HIT_REACH * h),
                 near_region(b.mesh, &regions[1], HIT_REACH * h),
@@ -392,11 +393,11 @@ fn inside_by_winding(
     parts: [SideFrame; 2],
     ints: &Intersections,
     tree: Option<&crate::report::metrics::WindingNumber>,
+    h: f64,
     regions: &mut [IntersectionRegion; 2],
 ) {
     let positions = parts[0].mesh.positions();
     let triangles = parts[0].mesh.triangles();
-    let h = crate::mesh::operators::mean_edge_length(positions, triangles);
     let built;
     let winding = match tree {
         Some(t) => t,
