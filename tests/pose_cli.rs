@@ -83,11 +83,7 @@ fn obj_frames_follow_the_contract_and_do_not_depend_on_threads() {
     let times = frames::sample_times(&rig, Some(0), Some(7));
     for (i, &t) in times.iter().enumerate() {
         let name = format!("frame_{i:04}.obj");
-        let (fa, fb) = (
-            std::fs::read(a.join(&name)).expect("frame"),
-            std::fs::read(b.join(&name)).expect("frame"),
-        );
-        assert_eq!(fa, fb, "{name} differs between 1 and 2 threads");
+        let fa = same_bytes(&a, &b, &name);
         let text = String::from_utf8(fa).expect("utf8");
         let verts = obj_vertices(&text);
         let frame = frames::evaluate(&rig, &pre, Some(0), i, t);
@@ -335,12 +331,7 @@ fn contact_resolves_the_capsule_pair_and_does_not_depend_on_threads() {
     let (mut in_contact, mut before_total, mut after_total) = (0, 0, 0);
     for i in 0..CONTACT_FRAMES {
         let name = format!("frame_{i:04}.obj");
-        let bytes = std::fs::read(a.join(&name)).expect("frame");
-        assert_eq!(
-            bytes,
-            std::fs::read(b.join(&name)).expect("frame"),
-            "{name}: threads"
-        );
+        same_bytes(&a, &b, &name);
         let contact = obj_bodies(&a.join(&name), &l.rig);
         let skinned = obj_bodies(&plain.join(&name), &l.rig);
         let diag = read_json(&a.join(format!("frame_{i:04}.diag.json")));
@@ -649,12 +640,7 @@ fn self_contact_resolves_the_bending_capsule_and_does_not_depend_on_threads() {
     let (mut before_total, mut after_total) = (0, 0);
     for i in 0..SELF_FRAMES {
         let name = format!("frame_{i:04}.obj");
-        let bytes = std::fs::read(a.join(&name)).expect("frame");
-        assert_eq!(
-            bytes,
-            std::fs::read(b.join(&name)).expect("frame"),
-            "{name}: 1 and 2 threads"
-        );
+        same_bytes(&a, &b, &name);
         let out = obj_bodies(&a.join(&name), &l.rig);
         let skinned = obj_bodies(&plain.join(&name), &l.rig);
         assert_eq!(
@@ -820,4 +806,12 @@ fn self_contact_follows_its_configuration() {
         "--no-self-contact",
     ]);
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The file `name` of two output folders (runs with 1 and 2 threads): bit-identical; its bytes.
+fn same_bytes(a: &Path, b: &Path, name: &str) -> Vec<u8> {
+    let fa = std::fs::read(a.join(name)).expect("frame");
+    let fb = std::fs::read(b.join(name)).expect("frame");
+    assert_eq!(fa, fb, "{name} differs between 1 and 2 threads");
+    fa
 }
