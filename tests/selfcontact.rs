@@ -166,26 +166,44 @@ fn bending_capsule_fold() {
     check("bending_capsule", &r, 0, 2, 3.0);
 }
 
-/// The same bend with Center-of-Rotation skinning as input: resolved with the volume kept, but
-/// not yet at the issue's targets (see the issue note): up to 19 penetrating vertices at
-/// 140-150°, the crease's bottom turns faces over (up to 57) and the temporal ratio reaches 12
-/// (the profile around CoR's sharp crease is large, about 2.5 h, and a crease vertex joining a
-/// zone jumps).
-#[test]
-fn bending_capsule_fold_cor() {
-    let r = run_with("bending_capsule", 31, &[], Method::Cor);
-    assert!(r.rows.iter().any(|x| x.folds > 0), "CoR: the bend folds");
+/// The same bend with Center-of-Rotation and dual-quaternion skinning as input: resolved with
+/// the volume kept, but not yet at the issue's targets (see the issue note): up to 5
+/// penetrating vertices at 140-150°, up to 30 faces turned at the crease's bottom (both
+/// measured; before the buried band got the crease's intersection terms: CoR 19 and 57, DQS 22
+/// and 61), and the temporal ratio reaches 23 (the profile around the sharp crease is large,
+/// about 2.5 h, and a crease vertex joining a zone jumps).
+fn volume_preserving_input(method: Method) {
+    let r = run_with("bending_capsule", 31, &[], method);
+    assert!(
+        r.rows.iter().any(|x| x.folds > 0),
+        "{method:?}: the bend folds"
+    );
     for x in r.rows.iter().filter(|x| x.folds > 0) {
-        assert_eq!(x.nan, 0, "CoR frame {}: NaN", x.frame);
-        assert!(x.volume_error < 1e-4, "CoR frame {}: volume", x.frame);
+        let f = x.frame;
+        assert_eq!(x.nan, 0, "{method:?} frame {f}: NaN");
+        assert!(x.volume_error < 1e-4, "{method:?} frame {f}: volume");
         assert!(
-            x.after <= 20,
-            "CoR frame {}: penetration {} -> {}",
-            x.frame,
+            x.after <= 5,
+            "{method:?} frame {f}: penetration {} -> {}",
             x.before,
             x.after
         );
+        assert!(
+            x.turned.turned <= 35,
+            "{method:?} frame {f}: {} faces turned",
+            x.turned.turned
+        );
     }
+}
+
+#[test]
+fn bending_capsule_fold_cor() {
+    volume_preserving_input(Method::Cor);
+}
+
+#[test]
+fn bending_capsule_fold_dqs() {
+    volume_preserving_input(Method::Dqs);
 }
 
 /// The finger's three joints flexing past contact.

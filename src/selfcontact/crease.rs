@@ -11,7 +11,8 @@
 //!   midpoint to the centroids of its faces, always positive), so the balance does not depend on
 //!   the resolution. With `n` interpolated linearly along the edge, the minimum is 0 when the
 //!   sign of `n·d̂` changes, else the smaller end value;
-//! - vertex terms: on the vertices of intersecting faces plus one ring,
+//! - vertex terms: on the vertices of intersecting faces and those of `R` inside the other
+//!   part (the fold's choice, see `fold::with_buried`), plus one ring,
 //!   `λ_I A_i |n_i·d̂|` toward the side given by `sign(n_i·d̂)` (`+` means W1, as `d̂` is W1's
 //!   outward direction at the fold); elsewhere `λ_β A_i |2β_i - 1|` toward the side `β`
 //!   prefers; both `λ` scale as `1 / ℓ̄` (mean edge length).
@@ -58,7 +59,8 @@ pub struct CreaseInput<'a> {
     pub beta: &'a [f64],
     /// `d̂_12`, W1's outward direction.
     pub direction: Vector3<f64>,
-    /// Vertices of intersecting faces.
+    /// Vertices that get the intersection terms: those of intersecting faces (and, in the
+    /// fold, those of `R` inside the other part).
     pub intersecting: &'a [u32],
     /// The precomputed edges of `faces` (recomputed when `None`).
     pub topology: Option<&'a CreaseTopology>,

@@ -326,8 +326,14 @@ pub fn resolve_detected(
         step
     };
     let mut mark = 0.0;
-    let intersecting = &detection.vertices;
     let r = &pre.regions;
+    let mut winding = pre.winding.clone();
+    let tree = winding.refit(positions, triangles).then_some(&winding);
+    let intersecting = match tree {
+        Some(tree) => with_buried(pre, positions, normals, tree, &detection.vertices),
+        None => detection.vertices.clone(),
+    };
+    let intersecting = &intersecting;
     let crease = crease_cut(
         &CreaseInput {
             positions,
@@ -346,8 +352,6 @@ pub fn resolve_detected(
     let labels = cut_labels(triangles, &pre.faces, &crease.on_w1);
     let truncated = MeshIndex::self_contact_parts(positions, triangles, &labels)?;
     timings.crease = lap(&mut mark);
-    let mut winding = pre.winding.clone();
-    let tree = winding.refit(positions, triangles).then_some(&winding);
     let contact = truncated_contact(&truncated, positions, normals, direction, params, tree)?;
     timings.contact = lap(&mut mark);
     let Some(mut contact) = contact else {
@@ -400,6 +404,40 @@ pub fn resolve_detected(
         unbalanced: blended.unbalanced,
         timings,
     }))
+}
+
+/// The vertices that get the crease's intersection terms: those of the crossing faces
+/// (`crossing`, sorted) and the vertices of `R` inside the other part
+/// ([`inside_twice`]).
+///
+/// Not in `PIPELINE.md`, which gives the intersection terms to the crossing faces only. With
+/// DQS or CoR input the joint's inner side bulges into the other part: between the crease and
+/// the bulge's top (up to 8 h deep at 150° on the bending capsule) lies a band whose normals
+/// face the other part's direction (`n·d̂` of W1's sign on W2's side). Far from the
+/// intersection curve, the band got the `β` terms, stayed on W2's side, could not be mapped
+/// (back-facing, Sec. 4.2) and the zone ended 8 h deep: the profile then carried its
+/// amplitude (4 h) onto the band and folded it. With the intersection terms the band goes to
+/// the side its normals face. Measured on the bending capsule, 31 frames, worst frame:
+/// CoR 19 → 2 penetrating vertices, 57 → 30 faces turned; DQS 22 → 2, 61 → 22; LBS, finger and
+/// mouth unchanged. The temporal ratio does not improve (CoR 12 → 23, DQS 17 → 23: the
+/// crease's bottom still jumps, see the issue note).
+fn with_buried(
+    pre: &FoldPre,
+    positions: &[Point3<f64>],
+    normals: &[Vector3<f64>],
+    winding: &crate::report::metrics::WindingNumber,
+    crossing: &[u32],
+) -> Vec<u32> {
+    let region = &pre.shared.solver.region;
+    let length = mean_edge_length(region, positions);
+    let mut out = crossing.to_vec();
+    out.extend(region.vertices.iter().copied().filter(|&v| {
+        let v = v as usize;
+        inside_twice(winding, &positions[v], &normals[v], length)
+    }));
+    out.sort_unstable();
+    out.dedup();
+    out
 }
 
 /// Detection with the rest partition: the vertices of the faces crossing the other part, or
