@@ -153,15 +153,15 @@ pub fn resolve_pair(
 /// [`crate::intersect::MeshIndex::self_contact_parts`]); face pairs sharing a vertex are not
 /// intersections.
 ///
-/// `winding`: a winding-number tree of the whole mesh at the current positions (see
-/// [`crate::report::metrics::WindingNumber::refit`]); built here when `None`.
+/// `inside`: the inside-twice test at the current positions (see [`InsideTwice`]); built here
+/// from the whole mesh when `None`.
 pub fn resolve_self_pair(
     part1: SideFrame,
     part2: SideFrame,
     params: &PairParams,
-    winding: Option<&crate::report::metrics::WindingNumber>,
+    inside: Option<&InsideTwice>,
 ) -> Result<Option<Contact>, ContactError> {
-    resolve(part1, part2, params, Surfaces::PartsOfOneMesh(winding))
+    resolve(part1, part2, params, Surfaces::PartsOfOneMesh(inside))
 }
 
 /// What the two sides of a contact are.
@@ -169,8 +169,8 @@ pub fn resolve_self_pair(
 enum Surfaces<'w> {
     /// Two separate closed surfaces.
     Separate,
-    /// Two parts of one closed mesh, with an optional winding-number tree of the whole mesh.
-    PartsOfOneMesh(Option<&'w crate::report::metrics::WindingNumber>),
+    /// Two parts of one closed mesh, with an optional inside-twice test of the whole mesh.
+    PartsOfOneMesh(Option<&'w InsideTwice<'w>>),
 }
 
 fn resolve(
@@ -199,11 +199,24 @@ fn resolve(
     ];
     let masks;
     let (a, b) = match surfaces {
-        Surfaces::PartsOfOneMesh(tree) => {
-            // The whole body's mean edge length (both parts index the same mesh).
-            let h =
-                crate::mesh::operators::mean_edge_length(a.mesh.positions(), a.mesh.triangles());
-            inside_by_winding([a, b], &ints, tree, h, &mut regions);
+        Surfaces::PartsOfOneMesh(given) => {
+            let built;
+            let inside = match given {
+                Some(t) => t,
+                None => {
+                    built = InsideTwice::new(
+                        crate::report::metrics::WindingNumber::new(
+                            a.mesh.positions(),
+                            a.mesh.triangles(),
+                        ),
+                        a.mesh.positions(),
+                        a.mesh.triangles(),
+                    );
+                    &built
+                }
+            };
+            let h = inside.h;
+            inside_by_winding([a, b], &ints, inside, &mut regions);
             masks = [
                 near_region(a.mesh, &regions[0], HIT_REACH * h),
                 near_region(b.mesh, &regions[1], HIT_REACH * h),
@@ -382,6 +395,72 @@ pub fn inside_twice(
     winding.query(&(p - n * (1e-3 * h))) >= 1.5
 }
 
+/// [`inside_twice`] for the vertices of one body at one frame, each vertex queried at most
+/// once: the self-contact of a joint asks it for the crease cut, `I_l` and the crease zones,
+/// often of the same vertices (a winding query costs microseconds near a fold).
+pub struct InsideTwice<'w> {
+    winding: WindingRef<'w>,
+    /// The nudge length: the body's mean edge length.
+    pub h: f64,
+    /// Per vertex: 0 not asked yet, 1 outside, 2 inside.
+    known: Vec<std::sync::atomic::AtomicU8>,
+}
+
+enum WindingRef<'w> {
+    Borrowed(&'w crate::report::metrics::WindingNumber),
+    Owned(Box<crate::report::metrics::WindingNumber>),
+}
+
+impl<'w> InsideTwice<'w> {
+    /// The test with an owned tree of the body at `positions`.
+    pub fn new(
+        winding: crate::report::metrics::WindingNumber,
+        positions: &[Point3<f64>],
+        triangles: &[[u32; 3]],
+    ) -> Self {
+        Self::with(WindingRef::Owned(Box::new(winding)), positions, triangles)
+    }
+
+    /// The test with a borrowed tree of the body at `positions`.
+    pub fn borrowed(
+        winding: &'w crate::report::metrics::WindingNumber,
+        positions: &[Point3<f64>],
+        triangles: &[[u32; 3]],
+    ) -> Self {
+        Self::with(WindingRef::Borrowed(winding), positions, triangles)
+    }
+
+    fn with(winding: WindingRef<'w>, positions: &[Point3<f64>], triangles: &[[u32; 3]]) -> Self {
+        Self {
+            winding,
+            h: crate::mesh::operators::mean_edge_length(positions, triangles),
+            known: (0..positions.len())
+                .map(|_| std::sync::atomic::AtomicU8::new(0))
+                .collect(),
+        }
+    }
+
+    /// Whether vertex `v` (at `p`, unit normal `n`) lies inside the body twice over.
+    pub fn at(&self, v: usize, p: &Point3<f64>, n: &Vector3<f64>) -> bool {
+        use std::sync::atomic::Ordering::Relaxed;
+        match self.known.get(v).map(|k| k.load(Relaxed)) {
+            Some(1) => false,
+            Some(2) => true,
+            slot => {
+                let tree = match &self.winding {
+                    WindingRef::Borrowed(t) => t,
+                    WindingRef::Owned(t) => t.as_ref(),
+                };
+                let inside = inside_twice(tree, p, n, self.h);
+                if slot.is_some() {
+                    self.known[v].store(if inside { 2 } else { 1 }, Relaxed);
+                }
+                inside
+            }
+        }
+    }
+}
+
 /// Self-contact: the truncated parts are open surfaces whose intersection curves usually end
 /// at the crease cut, so the flood fill of [`IntersectionRegion`] has nothing to stop it.
 /// Instead, a vertex of a part is in `I_l` when it lies inside the closed body twice over:
@@ -392,28 +471,18 @@ pub fn inside_twice(
 fn inside_by_winding(
     parts: [SideFrame; 2],
     ints: &Intersections,
-    tree: Option<&crate::report::metrics::WindingNumber>,
-    h: f64,
+    test: &InsideTwice,
     regions: &mut [IntersectionRegion; 2],
 ) {
     let positions = parts[0].mesh.positions();
     let triangles = parts[0].mesh.triangles();
-    let built;
-    let winding = match tree {
-        Some(t) => t,
-        None => {
-            built = crate::report::metrics::WindingNumber::new(positions, triangles);
-            &built
-        }
-    };
     for (k, (part, region)) in parts.iter().zip(regions.iter_mut()).enumerate() {
         let index = part.mesh.index();
         let is_inside = |v: u32| {
-            inside_twice(
-                winding,
+            test.at(
+                v as usize,
                 &positions[v as usize],
                 &part.normals[v as usize],
-                h,
             )
         };
         // Every component of I_l touches the intersection curve: search from the corners of

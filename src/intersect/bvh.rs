@@ -60,6 +60,12 @@ impl Aabb {
             && other.min.z <= self.max.z
     }
 
+    /// Whether the box holds no point (e.g. [`Aabb::EMPTY`]).
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.min.x > self.max.x || self.min.y > self.max.y || self.min.z > self.max.z
+    }
+
     /// Half the surface area (the SAH cost weight); 0 for an empty box.
     fn half_area(&self) -> f64 {
         let d = self.max - self.min;
@@ -72,6 +78,9 @@ impl Aabb {
     /// Parameter interval `[t0, t1]` of the ray `origin + t dir` inside the box (conservative:
     /// widened by a few ulps), or `None`.
     pub fn ray_interval(&self, origin: &Point3<f64>, inv_dir: &Vector3<f64>) -> Option<(f64, f64)> {
+        if self.is_empty() {
+            return None;
+        }
         let (mut t0, mut t1) = (f64::NEG_INFINITY, f64::INFINITY);
         for k in 0..3 {
             if inv_dir[k].is_infinite() {
@@ -113,8 +122,11 @@ pub struct TriangleBvh {
     nodes: Vec<Node>,
     /// Face id of each leaf slot.
     faces: Vec<u32>,
-    /// Box of each leaf slot's face (current positions).
+    /// Box of each leaf slot's face (current positions; [`Aabb::EMPTY`] for a masked slot).
     face_boxes: Vec<Aabb>,
+    /// Per leaf slot: the face belongs to the tree (`None`: every slot does). See
+    /// [`TriangleBvh::restricted`].
+    live: Option<Vec<bool>>,
 }
 
 impl TriangleBvh {
@@ -135,16 +147,55 @@ impl TriangleBvh {
             nodes,
             faces: order.iter().map(|&i| faces[i as usize]).collect(),
             face_boxes: order.iter().map(|&i| boxes[i as usize]).collect(),
+            live: None,
         }
+    }
+
+    /// The tree over a subset of its faces, without a rebuild: the structure is kept and the
+    /// other faces get empty boxes (which no query reaches), so after [`TriangleBvh::refit`]
+    /// every query gives what a tree built over the subset gives. `None` when a face of
+    /// `faces` (sorted ids) is not in the tree. Used for the truncated parts of a self-contact,
+    /// whose faces move with the crease every frame while their union does not.
+    pub fn restricted(&self, faces: &[u32]) -> Option<Self> {
+        let live: Vec<bool> = self
+            .faces
+            .iter()
+            .map(|f| faces.binary_search(f).is_ok())
+            .collect();
+        if live.iter().filter(|&&l| l).count() != faces.len() {
+            return None;
+        }
+        let mut out = self.clone();
+        for (b, &l) in out.face_boxes.iter_mut().zip(&live) {
+            if !l {
+                *b = Aabb::EMPTY;
+            }
+        }
+        out.live = Some(live);
+        out.refit_nodes();
+        Some(out)
     }
 
     /// Recomputes every box for new positions of the same mesh (same triangles).
     pub fn refit(&mut self, positions: &[Point3<f64>], triangles: &[[u32; 3]]) {
+        let live = self.live.as_deref();
         self.faces
             .par_iter()
             .zip(self.face_boxes.par_iter_mut())
+            .enumerate()
             .with_min_len(1024)
-            .for_each(|(&f, b)| *b = face_box(positions, &triangles[f as usize]));
+            .for_each(|(slot, (&f, b))| {
+                *b = if live.is_none_or(|l| l[slot]) {
+                    face_box(positions, &triangles[f as usize])
+                } else {
+                    Aabb::EMPTY
+                }
+            });
+        self.refit_nodes();
+    }
+
+    /// Node boxes from the face boxes, bottom up.
+    fn refit_nodes(&mut self) {
         for i in (0..self.nodes.len()).rev() {
             let n = self.nodes[i];
             let (first, count) = (n.first as usize, n.count as usize);
@@ -160,12 +211,14 @@ impl TriangleBvh {
 
     /// Number of faces in the tree.
     pub fn face_count(&self) -> usize {
-        self.faces.len()
+        self.live
+            .as_ref()
+            .map_or(self.faces.len(), |l| l.iter().filter(|&&x| x).count())
     }
 
     /// Box of the whole tree (`None` when empty).
     pub fn root_box(&self) -> Option<Aabb> {
-        self.nodes.first().map(|n| n.aabb)
+        self.nodes.first().map(|n| n.aabb).filter(|b| !b.is_empty())
     }
 
     /// All face pairs `(face of self, face of other)` whose boxes overlap, sorted.
@@ -536,6 +589,82 @@ mod tests {
             ta.overlapping_pairs(&tb, |x, y| Some((x, y))),
             brute(&moved, &b)
         );
+    }
+
+    /// Every face hit by the vertical ray through `(x, y)`, at its parameter (brute force).
+    fn hits_brute(
+        m: &(Vec<Point3<f64>>, Vec<[u32; 3]>),
+        faces: &[u32],
+        x: f64,
+        y: f64,
+    ) -> Option<f64> {
+        let o = Point3::new(x, y, -1.0);
+        faces
+            .iter()
+            .filter_map(|&f| {
+                let [a, b, c] = m.1[f as usize].map(|v| m.0[v as usize]);
+                let d = |p: Point3<f64>, q: Point3<f64>| {
+                    (q.x - p.x) * (y - p.y) - (q.y - p.y) * (x - p.x)
+                };
+                let (u, v, w) = (d(a, b), d(b, c), d(c, a));
+                let inside =
+                    (u >= 0.0 && v >= 0.0 && w >= 0.0) || (u <= 0.0 && v <= 0.0 && w <= 0.0);
+                let n = (b - a).cross(&(c - a));
+                (inside && n.z != 0.0).then(|| (a - o).dot(&n) / n.z)
+            })
+            .reduce(f64::max)
+    }
+
+    /// A tree restricted to a subset of its faces answers every query as a tree built over the
+    /// subset (and as brute force), after a refit to new positions too.
+    #[test]
+    fn restricted_tree_matches_a_tree_built_over_the_subset() {
+        let (a, b) = (wavy(12, 0.0, 0.0), wavy(10, 0.02, 1.0));
+        let all: Vec<u32> = (0..a.1.len() as u32).collect();
+        let half: Vec<u32> = all.iter().copied().filter(|f| (f / 7) % 2 == 0).collect();
+        let tb = TriangleBvh::build(&b.0, &b.1, &(0..b.1.len() as u32).collect::<Vec<_>>());
+        let mut restricted = TriangleBvh::build(&a.0, &a.1, &all)
+            .restricted(&half)
+            .expect("subset");
+        assert_eq!(restricted.face_count(), half.len());
+        let moved = wavy(12, 0.01, 2.0);
+        restricted.refit(&moved.0, &moved.1);
+        let built = TriangleBvh::build(&moved.0, &moved.1, &half);
+        let expected: Vec<(u32, u32)> = brute(&moved, &b)
+            .into_iter()
+            .filter(|(f, _)| half.binary_search(f).is_ok())
+            .collect();
+        assert!(!expected.is_empty() && expected.len() < brute(&moved, &b).len());
+        assert_eq!(restricted.candidate_pairs(&tb), expected);
+        assert_eq!(built.candidate_pairs(&tb), expected);
+        let mut rays = 0;
+        for k in 0..40 {
+            let (x, y) = (0.013 + 0.024 * k as f64, 0.5 + 0.011 * k as f64);
+            let farthest = |t: &TriangleBvh| {
+                let mut best = None::<f64>;
+                t.farthest_along(
+                    &Point3::new(x, y, -1.0),
+                    &Vector3::z(),
+                    3.0,
+                    |f, [t0, t1]| {
+                        let hit = hits_brute(&moved, &[f], x, y).filter(|h| *h >= t0 && *h <= t1);
+                        if let Some(h) = hit {
+                            best = Some(best.map_or(h, |b: f64| b.max(h)));
+                        }
+                        hit
+                    },
+                );
+                best
+            };
+            let want = hits_brute(&moved, &half, x, y);
+            rays += usize::from(want.is_some());
+            assert_eq!(farthest(&restricted), want, "ray {k}");
+            assert_eq!(farthest(&built), want, "ray {k}");
+        }
+        assert!(rays > 10, "rays hitting the subset: {rays}");
+        // A face outside the tree cannot be restricted to.
+        let small = TriangleBvh::build(&a.0, &a.1, &half);
+        assert!(small.restricted(&all).is_none());
     }
 
     #[test]

@@ -43,6 +43,17 @@ impl MeshIndex {
         triangles: &[[u32; 3]],
         faces: &[u32],
     ) -> Result<Self, IntersectError> {
+        Self::with_faces_in(rest_positions, triangles, faces, None)
+    }
+
+    /// [`MeshIndex::with_faces`], the BVH restricted from `within` when it holds every face
+    /// (see [`TriangleBvh::restricted`]), else built.
+    fn with_faces_in(
+        rest_positions: &[Point3<f64>],
+        triangles: &[[u32; 3]],
+        faces: &[u32],
+        within: Option<&TriangleBvh>,
+    ) -> Result<Self, IntersectError> {
         check_positions(rest_positions)?;
         let vertex_count = rest_positions.len();
         let (kept, index_degenerate) = valid_faces(triangles, faces, vertex_count)?;
@@ -55,7 +66,12 @@ impl MeshIndex {
             .collect();
         edges.sort_unstable();
         edges.dedup();
-        let bvh = TriangleBvh::build(rest_positions, triangles, &kept);
+        let restricted = within.and_then(|w| w.restricted(&kept)).map(|mut t| {
+            t.refit(rest_positions, triangles);
+            t
+        });
+        let bvh =
+            restricted.unwrap_or_else(|| TriangleBvh::build(rest_positions, triangles, &kept));
         let (vertex_edge_offsets, vertex_edge_ids) = vertex_edges(vertex_count, &edges);
         let mut used = vec![false; vertex_count];
         for &f in &kept {
@@ -83,6 +99,20 @@ impl MeshIndex {
         triangles: &[[u32; 3]],
         parts: &[u8],
     ) -> Result<[Self; 2], IntersectError> {
+        Self::self_contact_parts_within(None, rest_positions, triangles, parts)
+    }
+
+    /// [`MeshIndex::self_contact_parts`] at `positions`, each part's BVH restricted from
+    /// `within` (a tree over a superset of both parts, e.g. the faces of both working regions
+    /// of a joint, built once) instead of built: the crease cut moves the parts' faces in every
+    /// frame, their union does not change. Queries give the same results either way.
+    pub fn self_contact_parts_within(
+        within: Option<&TriangleBvh>,
+        positions: &[Point3<f64>],
+        triangles: &[[u32; 3]],
+        parts: &[u8],
+    ) -> Result<[Self; 2], IntersectError> {
+        let rest_positions = positions;
         if parts.len() != triangles.len() {
             return Err(IntersectError::PartCount {
                 expected: triangles.len(),
@@ -95,8 +125,8 @@ impl MeshIndex {
                 .collect()
         };
         let (a, b) = rayon::join(
-            || Self::with_faces(rest_positions, triangles, &part(1)),
-            || Self::with_faces(rest_positions, triangles, &part(2)),
+            || Self::with_faces_in(rest_positions, triangles, &part(1), within),
+            || Self::with_faces_in(rest_positions, triangles, &part(2), within),
         );
         Ok([a?, b?])
     }
@@ -146,6 +176,11 @@ impl MeshIndex {
             .binary_search(&canonical(a, b))
             .ok()
             .map(|i| i as u32)
+    }
+
+    /// The BVH, at the positions of the last build or refit.
+    pub fn bvh(&self) -> &TriangleBvh {
+        &self.bvh
     }
 
     /// The surface at one frame: the BVH refitted to `positions` (same topology).

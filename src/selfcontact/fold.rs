@@ -13,7 +13,7 @@
 use super::crease::{crease_cut, Crease, CreaseInput, CreaseParams, CreaseTopology};
 use super::regions::PairRegions;
 use crate::contact::{
-    inside_twice, resolve_self_pair, Contact, ContactSide, DirectionMode, PairParams, SideFrame,
+    resolve_self_pair, Contact, ContactSide, DirectionMode, InsideTwice, PairParams, SideFrame,
 };
 use crate::deform::region::{bulge_height, shape_region};
 use crate::deform::volume::RootKind;
@@ -115,6 +115,8 @@ pub struct FoldPre {
     shared: WorkingRegion,
     detect: [MeshIndex; 2],
     faces: Vec<u32>,
+    /// BVH over `faces` (at rest), restricted to each truncated part per frame.
+    parts_tree: crate::intersect::bvh::TriangleBvh,
     closed: bool,
     winding: crate::report::metrics::WindingNumber,
     topology: CreaseTopology,
@@ -201,6 +203,9 @@ impl FoldPre {
         faces.dedup();
         let labels = rest_labels(triangles, &regions);
         let detect = MeshIndex::self_contact_parts(rest, triangles, &labels)?;
+        let parts_tree = MeshIndex::with_faces(rest, triangles, &faces)?
+            .bvh()
+            .clone();
         // Only the topology is needed here (no factorization of the whole mesh).
         let closed = crate::mesh::Region::whole(triangles).is_closed();
         let winding =
@@ -216,6 +221,7 @@ impl FoldPre {
             shared,
             detect,
             faces,
+            parts_tree,
             closed,
             winding,
             topology,
@@ -328,7 +334,10 @@ pub fn resolve_detected(
     let mut mark = 0.0;
     let r = &pre.regions;
     let mut winding = pre.winding.clone();
-    let tree = winding.refit(positions, triangles).then_some(&winding);
+    let inside = winding
+        .refit(positions, triangles)
+        .then(|| InsideTwice::borrowed(&winding, positions, triangles));
+    let tree = inside.as_ref();
     let intersecting = match tree {
         Some(tree) => with_buried(pre, positions, normals, tree, &detection.vertices),
         None => detection.vertices.clone(),
@@ -350,7 +359,8 @@ pub fn resolve_detected(
         &params.crease,
     )?;
     let labels = cut_labels(triangles, &pre.faces, &crease.on_w1);
-    let truncated = MeshIndex::self_contact_parts(positions, triangles, &labels)?;
+    let truncated =
+        MeshIndex::self_contact_parts_within(Some(&pre.parts_tree), positions, triangles, &labels)?;
     timings.crease = lap(&mut mark);
     let contact = truncated_contact(&truncated, positions, normals, direction, params, tree)?;
     timings.contact = lap(&mut mark);
@@ -408,7 +418,9 @@ pub fn resolve_detected(
 
 /// The vertices that get the crease's intersection terms: those of the crossing faces
 /// (`crossing`, sorted) and the vertices of `R` inside the other part
-/// ([`inside_twice`]).
+/// ([`crate::contact::inside_twice`]) reached from them across `R`'s edges through such
+/// vertices (as `I_l` is found). A scan of the whole of `R` finds 0 to 5 more per 31-frame
+/// animation (isolated vertices, CoR and DQS) for 4 times the winding queries.
 ///
 /// Not in `PIPELINE.md`, which gives the intersection terms to the crossing faces only. With
 /// DQS or CoR input the joint's inner side bulges into the other part: between the crease and
@@ -418,23 +430,44 @@ pub fn resolve_detected(
 /// (back-facing, Sec. 4.2) and the zone ended 8 h deep: the profile then carried its
 /// amplitude (4 h) onto the band and folded it. With the intersection terms the band goes to
 /// the side its normals face. Measured on the bending capsule, 31 frames, worst frame:
-/// CoR 19 → 2 penetrating vertices, 57 → 30 faces turned; DQS 22 → 2, 61 → 22; LBS, finger and
+/// CoR 19 → 5 penetrating vertices, 57 → 30 faces turned; DQS 22 → 2, 61 → 22; LBS, finger and
 /// mouth unchanged. The temporal ratio does not improve (CoR 12 → 23, DQS 17 → 23: the
 /// crease's bottom still jumps, see the issue note).
 fn with_buried(
     pre: &FoldPre,
     positions: &[Point3<f64>],
     normals: &[Vector3<f64>],
-    winding: &crate::report::metrics::WindingNumber,
+    inside: &InsideTwice,
     crossing: &[u32],
 ) -> Vec<u32> {
     let region = &pre.shared.solver.region;
-    let length = mean_edge_length(region, positions);
+    let local = |v: u32| {
+        pre.shared
+            .local_of
+            .get(v as usize)
+            .copied()
+            .filter(|&l| l != u32::MAX)
+    };
+    let mut adjacency: Vec<Vec<u32>> = vec![Vec::new(); region.vertex_count()];
+    for &[a, b] in &region.edges {
+        adjacency[a as usize].push(b);
+        adjacency[b as usize].push(a);
+    }
+    let mut state = vec![0u8; region.vertex_count()];
+    let mut stack: Vec<u32> = crossing.iter().filter_map(|&v| local(v)).collect();
     let mut out = crossing.to_vec();
-    out.extend(region.vertices.iter().copied().filter(|&v| {
-        let v = v as usize;
-        inside_twice(winding, &positions[v], &normals[v], length)
-    }));
+    while let Some(l) = stack.pop() {
+        if state[l as usize] != 0 {
+            continue;
+        }
+        let v = region.vertices[l as usize] as usize;
+        let buried = inside.at(v, &positions[v], &normals[v]);
+        state[l as usize] = if buried { 2 } else { 1 };
+        if buried {
+            out.push(v as u32);
+            stack.extend(&adjacency[l as usize]);
+        }
+    }
     out.sort_unstable();
     out.dedup();
     out
@@ -476,7 +509,7 @@ fn truncated_contact(
     normals: &[Vector3<f64>],
     direction: Vector3<f64>,
     params: &FoldParams,
-    tree: Option<&crate::report::metrics::WindingNumber>,
+    tree: Option<&InsideTwice>,
 ) -> Result<Option<Contact>, FoldError> {
     let posed = [truncated[0].pose(positions)?, truncated[1].pose(positions)?];
     let side = |k: usize| SideFrame {
@@ -564,7 +597,7 @@ fn cut_labels(triangles: &[[u32; 3]], faces: &[u32], on_w1: &[bool]) -> Vec<u8> 
 }
 
 /// Extends the contact zones to the vertices of the crease cut (next to the other side) that
-/// lie inside the other part ([`inside_twice`], as for `I_l`): each joins the zone of its own side,
+/// lie inside the other part ([`crate::contact::inside_twice`], as for `I_l`): each joins the zone of its own side,
 /// else of the other side (a cut vertex belongs to faces of both parts), whose sample is
 /// [`conditioned`]; only a side that already has a zone is extended.
 ///
@@ -583,12 +616,12 @@ fn zones_to_the_crease(
     on_w1: &[bool],
     positions: &[Point3<f64>],
     normals: &[Vector3<f64>],
-    winding: &crate::report::metrics::WindingNumber,
+    test: &InsideTwice,
     contact: &mut Contact,
 ) {
     let region = &pre.shared.solver.region;
     let length = mean_edge_length(region, positions);
-    let inside = |v: usize| inside_twice(winding, &positions[v], &normals[v], length);
+    let inside = |v: usize| test.at(v, &positions[v], &normals[v]);
     // Zones are extended, not created: a zone made of crease vertices alone can sit on the
     // working region's border, where the extent is capped to nothing and no bulge can
     // compensate (measured on CesiumMan: a one-vertex zone, volume error 7e-3).
