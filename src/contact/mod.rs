@@ -205,10 +205,10 @@ fn resolve(
                 Some(t) => t,
                 None => {
                     built = InsideTwice::new(
-                        crate::report::metrics::WindingNumber::new(
+                        std::borrow::Cow::Owned(crate::report::metrics::WindingNumber::new(
                             a.mesh.positions(),
                             a.mesh.triangles(),
-                        ),
+                        )),
                         a.mesh.positions(),
                         a.mesh.triangles(),
                     );
@@ -399,38 +399,20 @@ pub fn inside_twice(
 /// once: the self-contact of a joint asks it for the crease cut, `I_l` and the crease zones,
 /// often of the same vertices (a winding query costs microseconds near a fold).
 pub struct InsideTwice<'w> {
-    winding: WindingRef<'w>,
+    winding: std::borrow::Cow<'w, crate::report::metrics::WindingNumber>,
     /// The nudge length: the body's mean edge length.
     pub h: f64,
     /// Per vertex: 0 not asked yet, 1 outside, 2 inside.
     known: Vec<std::sync::atomic::AtomicU8>,
 }
 
-enum WindingRef<'w> {
-    Borrowed(&'w crate::report::metrics::WindingNumber),
-    Owned(Box<crate::report::metrics::WindingNumber>),
-}
-
 impl<'w> InsideTwice<'w> {
-    /// The test with an owned tree of the body at `positions`.
+    /// The test with a tree (owned or borrowed) of the body at `positions`.
     pub fn new(
-        winding: crate::report::metrics::WindingNumber,
+        winding: std::borrow::Cow<'w, crate::report::metrics::WindingNumber>,
         positions: &[Point3<f64>],
         triangles: &[[u32; 3]],
     ) -> Self {
-        Self::with(WindingRef::Owned(Box::new(winding)), positions, triangles)
-    }
-
-    /// The test with a borrowed tree of the body at `positions`.
-    pub fn borrowed(
-        winding: &'w crate::report::metrics::WindingNumber,
-        positions: &[Point3<f64>],
-        triangles: &[[u32; 3]],
-    ) -> Self {
-        Self::with(WindingRef::Borrowed(winding), positions, triangles)
-    }
-
-    fn with(winding: WindingRef<'w>, positions: &[Point3<f64>], triangles: &[[u32; 3]]) -> Self {
         Self {
             winding,
             h: crate::mesh::operators::mean_edge_length(positions, triangles),
@@ -447,11 +429,7 @@ impl<'w> InsideTwice<'w> {
             Some(1) => false,
             Some(2) => true,
             slot => {
-                let tree = match &self.winding {
-                    WindingRef::Borrowed(t) => t,
-                    WindingRef::Owned(t) => t.as_ref(),
-                };
-                let inside = inside_twice(tree, p, n, self.h);
+                let inside = inside_twice(&self.winding, p, n, self.h);
                 if slot.is_some() {
                     self.known[v].store(if inside { 2 } else { 1 }, Relaxed);
                 }

@@ -112,7 +112,6 @@ impl MeshIndex {
         triangles: &[[u32; 3]],
         parts: &[u8],
     ) -> Result<[Self; 2], IntersectError> {
-        let rest_positions = positions;
         if parts.len() != triangles.len() {
             return Err(IntersectError::PartCount {
                 expected: triangles.len(),
@@ -125,8 +124,8 @@ impl MeshIndex {
                 .collect()
         };
         let (a, b) = rayon::join(
-            || Self::with_faces_in(rest_positions, triangles, &part(1), within),
-            || Self::with_faces_in(rest_positions, triangles, &part(2), within),
+            || Self::with_faces_in(positions, triangles, &part(1), within),
+            || Self::with_faces_in(positions, triangles, &part(2), within),
         );
         Ok([a?, b?])
     }

@@ -336,7 +336,7 @@ pub fn resolve_detected(
     let mut winding = pre.winding.clone();
     let inside = winding
         .refit(positions, triangles)
-        .then(|| InsideTwice::borrowed(&winding, positions, triangles));
+        .then(|| InsideTwice::new(std::borrow::Cow::Borrowed(&winding), positions, triangles));
     let tree = inside.as_ref();
     let intersecting = match tree {
         Some(tree) => with_buried(pre, positions, normals, tree, &detection.vertices),
