@@ -464,27 +464,26 @@ fn inside_by_winding(
             )
         };
         // Every component of I_l touches the intersection curve: search from the corners of
-        // the crossed faces, across edges, expanding only from vertices found inside.
-        let mut state = vec![0u8; positions.len()]; // 0 unseen, 1 outside, 2 inside
-        let mut stack: Vec<u32> = ints
+        // the crossed faces.
+        let seeds = ints
             .segments
             .iter()
-            .flat_map(|s| triangles[s.faces[k] as usize])
-            .collect();
-        while let Some(v) = stack.pop() {
-            if state[v as usize] != 0 || !index.uses_vertex(v) {
-                continue;
-            }
-            let inside = is_inside(v);
-            state[v as usize] = if inside { 2 } else { 1 };
-            if inside {
-                for &e in index.vertex_edges(v) {
+            .flat_map(|s| triangles[s.faces[k] as usize]);
+        let inside = inside_from(
+            positions.len(),
+            seeds,
+            |v, out| {
+                out.extend(index.vertex_edges(v).iter().map(|&e| {
                     let [a, b] = index.edges()[e as usize];
-                    stack.push(if a == v { b } else { a });
-                }
-            }
-        }
-        let inside: Vec<bool> = state.iter().map(|&s| s == 2).collect();
+                    if a == v {
+                        b
+                    } else {
+                        a
+                    }
+                }))
+            },
+            |v| index.uses_vertex(v) && is_inside(v),
+        );
         let (mut whole, mut cut) = (Vec::new(), Vec::new());
         for &f in index.faces() {
             let n = triangles[f as usize]
@@ -505,6 +504,32 @@ fn inside_by_winding(
         region.whole_faces = whole;
         region.cut_faces = cut;
     }
+}
+
+/// The vertices (ids below `n`) reached from `seeds` through vertices that pass `inside`:
+/// the search crosses edges (`neighbours(v, out)` pushes the vertices next to `v`) but
+/// expands only from vertices found inside, and asks `inside` once per vertex. This is how the
+/// inside regions of a self-contact are found: each of their components touches the
+/// intersection curve.
+pub(crate) fn inside_from(
+    n: usize,
+    seeds: impl IntoIterator<Item = u32>,
+    neighbours: impl Fn(u32, &mut Vec<u32>),
+    mut inside: impl FnMut(u32) -> bool,
+) -> Vec<bool> {
+    let mut state = vec![0u8; n]; // 0 unseen, 1 outside, 2 inside
+    let mut stack: Vec<u32> = seeds.into_iter().collect();
+    while let Some(v) = stack.pop() {
+        if state.get(v as usize) != Some(&0) {
+            continue;
+        }
+        let found = inside(v);
+        state[v as usize] = if found { 2 } else { 1 };
+        if found {
+            neighbours(v, &mut stack);
+        }
+    }
+    state.iter().map(|&s| s == 2).collect()
 }
 
 /// Intersection curves shorter than this fraction of the scene size are a touch (surfaces

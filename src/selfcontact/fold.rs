@@ -13,7 +13,8 @@
 use super::crease::{crease_cut, Crease, CreaseInput, CreaseParams, CreaseTopology};
 use super::regions::PairRegions;
 use crate::contact::{
-    resolve_self_pair, Contact, ContactSide, DirectionMode, InsideTwice, PairParams, SideFrame,
+    inside_from, resolve_self_pair, Contact, ContactSide, DirectionMode, InsideTwice, PairParams,
+    SideFrame,
 };
 use crate::deform::region::{bulge_height, shape_region};
 use crate::deform::volume::RootKind;
@@ -123,6 +124,8 @@ pub struct FoldPre {
     /// Per vertex of `R`: adjacent to `W1 \ R`, adjacent to `W2 \ R` (the borders where `σ`
     /// is +1 or -1).
     toward: Vec<(bool, bool)>,
+    /// Neighbours of each local vertex of `shared` (local ids).
+    shared_adjacency: Vec<Vec<u32>>,
     /// The joint's size: the diagonal of the shared region's bounding box at rest.
     pub joint_size: f64,
 }
@@ -213,6 +216,7 @@ impl FoldPre {
         let topology = CreaseTopology::new(triangles, &faces);
         let toward = border_sides(triangles, &regions);
         let joint_size = regions.joint_size(rest);
+        let shared_adjacency = edge_adjacency(&shared.solver.region);
         Ok(Self {
             joint_size,
             regions,
@@ -226,6 +230,7 @@ impl FoldPre {
             winding,
             topology,
             toward,
+            shared_adjacency,
         })
     }
 }
@@ -256,6 +261,16 @@ impl FoldPre {
             }),
         )
     }
+}
+
+/// Neighbours of each local vertex of `region` over its edges (local ids).
+fn edge_adjacency(region: &crate::mesh::Region) -> Vec<Vec<u32>> {
+    let mut adjacency = vec![Vec::new(); region.vertex_count()];
+    for &[a, b] in &region.edges {
+        adjacency[a as usize].push(b);
+        adjacency[b as usize].push(a);
+    }
+    adjacency
 }
 
 /// Per vertex of `R`: whether it is adjacent to `W1 \ R` and to `W2 \ R`.
@@ -448,26 +463,24 @@ fn with_buried(
             .copied()
             .filter(|&l| l != u32::MAX)
     };
-    let mut adjacency: Vec<Vec<u32>> = vec![Vec::new(); region.vertex_count()];
-    for &[a, b] in &region.edges {
-        adjacency[a as usize].push(b);
-        adjacency[b as usize].push(a);
-    }
-    let mut state = vec![0u8; region.vertex_count()];
-    let mut stack: Vec<u32> = crossing.iter().filter_map(|&v| local(v)).collect();
+    let buried = inside_from(
+        region.vertex_count(),
+        crossing.iter().filter_map(|&v| local(v)),
+        |l, out| out.extend(&pre.shared_adjacency[l as usize]),
+        |l| {
+            let v = region.vertices[l as usize] as usize;
+            inside.at(v, &positions[v], &normals[v])
+        },
+    );
     let mut out = crossing.to_vec();
-    while let Some(l) = stack.pop() {
-        if state[l as usize] != 0 {
-            continue;
-        }
-        let v = region.vertices[l as usize] as usize;
-        let buried = inside.at(v, &positions[v], &normals[v]);
-        state[l as usize] = if buried { 2 } else { 1 };
-        if buried {
-            out.push(v as u32);
-            stack.extend(&adjacency[l as usize]);
-        }
-    }
+    out.extend(
+        region
+            .vertices
+            .iter()
+            .zip(&buried)
+            .filter(|(_, &b)| b)
+            .map(|(&v, _)| v),
+    );
     out.sort_unstable();
     out.dedup();
     out
