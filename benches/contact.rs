@@ -12,13 +12,14 @@
 
 use contact_skin::frames::{self, Precomputed};
 use contact_skin::pass::{ContactPass, ObjectParams, PassOutput, RestBody, StageTimings};
-use contact_skin::rig::{self, Rig};
+use contact_skin::report::timings::{median, median_stages};
+use contact_skin::rig::Rig;
 use contact_skin::skinning::Method;
 use criterion::{criterion_group, criterion_main, Criterion};
-use nalgebra::Point3;
 use std::hint::black_box;
-use std::path::Path;
 use std::time::{Duration, Instant};
+
+mod common;
 
 struct Scene {
     rig: Rig,
@@ -27,17 +28,10 @@ struct Scene {
     times: Vec<f64>,
 }
 
-fn welded(rig: &Rig, pre: &Precomputed, t: f64, anim: Option<usize>) -> Vec<Vec<Point3<f64>>> {
-    frames::welded_positions(rig, pre, anim, t)
-}
-
 fn scene(name: &str, passes: usize) -> Scene {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("rigs")
-        .join(format!("{name}.glb"));
-    let rig = rig::load(&path).expect("committed rig");
+    let rig = common::committed_rig(name);
     let pre = Precomputed::new(&rig, Method::Lbs);
-    let rest = welded(&rig, &pre, 0.0, None);
+    let rest = frames::welded_positions(&rig, &pre, None, 0.0);
     let bodies: Vec<RestBody> = rest
         .iter()
         .zip(&pre.welded)
@@ -56,40 +50,31 @@ fn scene(name: &str, passes: usize) -> Scene {
     }
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    if v.is_empty() {
-        0.0
-    } else {
-        v[v.len() / 2]
-    }
-}
-
 /// Per-stage medians (ms) over the frames with contact, on the current rayon pool.
 fn breakdown(s: &Scene) -> (Vec<(&'static str, f64)>, usize, f64) {
     let mut rows: Vec<StageTimings> = Vec::new();
     let mut skin = Vec::new();
     for &t in &s.times {
         let start = Instant::now();
-        let input = welded(&s.rig, &s.pre, t, Some(0));
+        let input = frames::welded_positions(&s.rig, &s.pre, Some(0), t);
         skin.push(start.elapsed().as_secs_f64());
         let out: PassOutput = s.pass.run_at(&input, t).expect("pass");
         if !out.contacts.is_empty() {
             rows.push(out.timings);
         }
     }
-    let col = |f: fn(&StageTimings) -> f64| 1e3 * median(rows.iter().map(f).collect());
+    let m = median_stages(&rows);
     let table = vec![
-        ("i. intersection", col(|t| t.intersection)),
-        ("m. mapping", col(|t| t.mapping)),
-        ("c. contact zones", col(|t| t.zones)),
-        ("p. parametrization", col(|t| t.parametrization)),
-        ("di. directions", col(|t| t.directions)),
-        ("g. diffusion", col(|t| t.fields)),
-        ("de. deformation", col(|t| t.deformation)),
-        ("s. factorizations", col(|t| t.factorization)),
-        ("setup (normals, refit)", col(|t| t.setup)),
-        ("wall", col(|t| t.wall)),
+        ("i. intersection", m.intersection),
+        ("m. mapping", m.mapping),
+        ("c. contact zones", m.zones),
+        ("p. parametrization", m.parametrization),
+        ("di. directions", m.directions),
+        ("g. diffusion", m.fields),
+        ("de. deformation", m.deformation),
+        ("s. factorizations", m.factorization),
+        ("setup (normals, refit)", m.setup),
+        ("wall", m.wall),
     ];
     (table, rows.len(), 1e3 * median(skin))
 }
@@ -126,8 +111,8 @@ fn bench(c: &mut Criterion) {
     for name in ["fingertips_ball", "capsule_pair", "sphere_plane"] {
         let s = scene(name, 1);
         let last = *s.times.last().unwrap_or(&0.0);
-        let deep = welded(&s.rig, &s.pre, last, Some(0));
-        let rest = welded(&s.rig, &s.pre, 0.0, Some(0));
+        let deep = frames::welded_positions(&s.rig, &s.pre, Some(0), last);
+        let rest = frames::welded_positions(&s.rig, &s.pre, Some(0), 0.0);
         g.bench_function(format!("{name}/deepest frame/1 pass/1 thread"), |b| {
             b.iter(|| one.install(|| black_box(s.pass.run(&deep).expect("pass"))))
         });
@@ -138,7 +123,9 @@ fn bench(c: &mut Criterion) {
             b.iter(|| one.install(|| black_box(s.pass.run(&rest).expect("pass"))))
         });
         g.bench_function(format!("{name}/skinning + weld/1 thread"), |b| {
-            b.iter(|| one.install(|| black_box(welded(&s.rig, &s.pre, last, Some(0)))))
+            b.iter(|| {
+                one.install(|| black_box(frames::welded_positions(&s.rig, &s.pre, Some(0), last)))
+            })
         });
     }
     g.finish();
@@ -167,7 +154,10 @@ fn batch(c: &mut Criterion) {
                             .par_iter()
                             .map(|&t| {
                                 s.pass
-                                    .run_at(&welded(&s.rig, &s.pre, t, Some(0)), t)
+                                    .run_at(
+                                        &frames::welded_positions(&s.rig, &s.pre, Some(0), t),
+                                        t,
+                                    )
                                     .expect("pass")
                                     .positions
                                     .len()

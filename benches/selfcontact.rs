@@ -8,28 +8,22 @@
 //! Run with `cargo bench --bench selfcontact`.
 
 use contact_skin::frames::{self, Precomputed};
-use contact_skin::rig::{self, Rig};
+use contact_skin::report::timings::median_folds;
+use contact_skin::rig::Rig;
 use contact_skin::selfcontact::fold::{FoldParams, FoldTimings};
 use contact_skin::selfcontact::pass::SelfContactPass;
 use contact_skin::selfcontact::RegionOptions;
 use contact_skin::skinning::Method;
 use criterion::{criterion_group, criterion_main, Criterion};
-use nalgebra::Point3;
 use std::hint::black_box;
-use std::path::Path;
 use std::time::{Duration, Instant};
 
-fn welded(rig: &Rig, pre: &Precomputed, t: f64, anim: Option<usize>) -> Vec<Vec<Point3<f64>>> {
-    frames::welded_positions(rig, pre, anim, t)
-}
+mod common;
 
 fn setup(name: &str, passes: usize) -> (Rig, Precomputed, SelfContactPass, Vec<f64>) {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("rigs")
-        .join(format!("{name}.glb"));
-    let rig = rig::load(&path).expect("committed rig");
+    let rig = common::committed_rig(name);
     let pre = Precomputed::new(&rig, Method::Lbs);
-    let rest = welded(&rig, &pre, 0.0, None);
+    let rest = frames::welded_positions(&rig, &pre, None, 0.0);
     let start = Instant::now();
     let pass = SelfContactPass::new(
         &rig,
@@ -49,16 +43,11 @@ fn setup(name: &str, passes: usize) -> (Rig, Precomputed, SelfContactPass, Vec<f
     (rig, pre, pass, times)
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v.get(v.len() / 2).copied().unwrap_or(0.0)
-}
-
 fn breakdown(name: &str, passes: usize, threads: usize) {
     let (rig, pre, pass, times) = setup(name, passes);
     let mut rows: Vec<(FoldTimings, f64)> = Vec::new();
     for &t in &times {
-        let mut pos = welded(&rig, &pre, t, Some(0));
+        let mut pos = frames::welded_positions(&rig, &pre, Some(0), t);
         let pose = rig.pose_at(Some(0), t);
         let start = Instant::now();
         let out = pass.run(&rig, &pose, &mut pos).expect("pass");
@@ -67,26 +56,22 @@ fn breakdown(name: &str, passes: usize, threads: usize) {
             rows.push((out.timings, wall));
         }
     }
-    let col = |f: fn(&FoldTimings) -> f64| 1e3 * median(rows.iter().map(|(t, _)| f(t)).collect());
+    let m = median_folds(&rows);
     println!(
         "{name}, {passes} sweep(s), {threads} thread(s), median over {} frames with a fold:",
         rows.len()
     );
     for (label, ms) in [
-        ("detection", col(|t| t.detection)),
-        ("crease cut", col(|t| t.crease)),
-        ("contact (Sec. 4)", col(|t| t.contact)),
-        ("directions (sigma)", col(|t| t.directions)),
-        ("deformation (Sec. 5)", col(|t| t.deformation)),
-        ("blend + volume", col(|t| t.volume)),
+        ("detection", m.steps.detection),
+        ("crease cut", m.steps.crease),
+        ("contact (Sec. 4)", m.steps.contact),
+        ("directions (sigma)", m.steps.directions),
+        ("deformation (Sec. 5)", m.steps.deformation),
+        ("blend + volume", m.steps.volume),
+        ("wall", m.wall),
     ] {
         println!("  {label:<22} {ms:>8.3} ms");
     }
-    println!(
-        "  {:<22} {:>8.3} ms",
-        "wall",
-        1e3 * median(rows.iter().map(|r| r.1).collect())
-    );
 }
 
 fn bench(c: &mut Criterion) {
@@ -111,7 +96,7 @@ fn bench(c: &mut Criterion) {
     for name in ["finger", "bending_capsule"] {
         let (rig, pre, pass, times) = setup(name, 1);
         let t = *times.last().unwrap_or(&0.0);
-        let input = welded(&rig, &pre, t, Some(0));
+        let input = frames::welded_positions(&rig, &pre, Some(0), t);
         let pose = rig.pose_at(Some(0), t);
         g.bench_function(format!("{name}/deepest frame/1 sweep/1 thread"), |b| {
             b.iter(|| {
@@ -126,10 +111,10 @@ fn bench(c: &mut Criterion) {
     for name in ["finger", "bending_capsule"] {
         let (rig, pre, pass, times) = setup(name, 2);
         let t = times[2];
-        let input = welded(&rig, &pre, t, Some(0));
+        let input = frames::welded_positions(&rig, &pre, Some(0), t);
         let pose = rig.pose_at(Some(0), t);
         g.bench_function(format!("{name}/frame without contact/skinning"), |b| {
-            b.iter(|| pool.install(|| black_box(welded(&rig, &pre, t, Some(0)))))
+            b.iter(|| pool.install(|| black_box(frames::welded_positions(&rig, &pre, Some(0), t))))
         });
         g.bench_function(format!("{name}/frame without contact/pass"), |b| {
             b.iter(|| {
@@ -163,7 +148,7 @@ fn batch(c: &mut Criterion) {
                     times
                         .par_iter()
                         .map(|&t| {
-                            let mut pos = welded(&rig, &pre, t, Some(0));
+                            let mut pos = frames::welded_positions(&rig, &pre, Some(0), t);
                             let pose = rig.pose_at(Some(0), t);
                             pass.run(&rig, &pose, &mut pos).expect("pass").folds.len()
                         })

@@ -1,11 +1,13 @@
 //! The contact passes as the command line runs them: configuration discovery, the one
 //! [`ContactPass`] (objects) and [`SelfContactPass`] (joints folding into themselves) of a
 //! run, per-frame evaluation (skinning → welded → object pass → self-contact pass → file
-//! vertices), the `frame_NNNN.diag.json` diagnostics and median stage timings.
+//! vertices), the `frame_NNNN.diag.json` diagnostics and median stage timings
+//! (computed by [`contact_skin::report::timings`]).
 
 use contact_skin::config::{ContactConfig, SelfContactSettings};
 use contact_skin::frames::{self, Frame, Precomputed};
 use contact_skin::pass::{ContactPass, PassOutput, RestBody, StageTimings};
+pub use contact_skin::report::timings::{median, median_folds, median_stages, FoldMs};
 use contact_skin::rig::Rig;
 use contact_skin::selfcontact::fold::FoldTimings;
 use contact_skin::selfcontact::pass::{SelfContactPass, SelfPassOutput};
@@ -411,66 +413,4 @@ pub fn diagnostics(rig: &Rig, pre: &Precomputed, c: &ContactFrame) -> FrameDiagn
 /// The diagnostics file name of frame `index`: `frame_NNNN.diag.json`.
 pub fn diagnostics_file_name(index: usize) -> String {
     format!("frame_{index:04}.diag.json")
-}
-
-// ---------------------------------------------------------------------------------------------
-// Timings
-
-/// Median of each stage over `timings`, in ms (the paper's Table 1 columns).
-pub fn median_stages(timings: &[StageTimings]) -> StageTimings {
-    let m = |f: fn(&StageTimings) -> f64| median(timings.iter().map(f).collect()) * 1e3;
-    StageTimings {
-        setup: m(|t| t.setup),
-        intersection: m(|t| t.intersection),
-        mapping: m(|t| t.mapping),
-        zones: m(|t| t.zones),
-        parametrization: m(|t| t.parametrization),
-        directions: m(|t| t.directions),
-        fields: m(|t| t.fields),
-        deformation: m(|t| t.deformation),
-        factorization: m(|t| t.factorization),
-        wall: m(|t| t.wall),
-    }
-}
-
-/// Median fold step times in ms: each step of [`FoldTimings`] summed over the folds of a frame,
-/// and `wall`, the whole self-contact pass of the frame.
-#[derive(Clone, Copy, Debug, Default, Serialize)]
-pub struct FoldMs {
-    /// The steps.
-    #[serde(flatten)]
-    pub steps: FoldTimings,
-    /// The whole self-contact pass of the frame.
-    pub wall: f64,
-}
-
-/// Median of each fold step over `frames` (`(summed fold timings, pass wall time)` in s), in
-/// ms.
-pub fn median_folds(frames: &[(FoldTimings, f64)]) -> FoldMs {
-    let m = |f: fn(&(FoldTimings, f64)) -> f64| median(frames.iter().map(f).collect()) * 1e3;
-    FoldMs {
-        steps: FoldTimings {
-            detection: m(|t| t.0.detection),
-            crease: m(|t| t.0.crease),
-            contact: m(|t| t.0.contact),
-            directions: m(|t| t.0.directions),
-            deformation: m(|t| t.0.deformation),
-            volume: m(|t| t.0.volume),
-        },
-        wall: m(|t| t.1),
-    }
-}
-
-/// Median of a list (0 for an empty one).
-pub fn median(mut v: Vec<f64>) -> f64 {
-    if v.is_empty() {
-        return 0.0;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
 }
