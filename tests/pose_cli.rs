@@ -31,6 +31,13 @@ fn pose(args: &[&str]) -> std::process::Output {
     out
 }
 
+/// `contact-skin pose RIG --out OUT --frames FRAMES EXTRA...`, asserted to succeed.
+fn pose_frames(rig: &Path, out: &Path, frames: &str, extra: &[&str]) -> std::process::Output {
+    let mut args = vec!["pose", s(rig), "--out", s(out), "--frames", frames];
+    args.extend_from_slice(extra);
+    pose(&args)
+}
+
 /// Parses the `v` lines of an OBJ.
 fn obj_vertices(text: &str) -> Vec<[f64; 3]> {
     text.lines()
@@ -303,15 +310,7 @@ fn contact_resolves_the_capsule_pair_and_does_not_depend_on_threads() {
         "--frames",
         &n,
     ]);
-    pose(&[
-        "pose",
-        s(&rig_path),
-        "--out",
-        s(&plain),
-        "--frames",
-        &n,
-        "--no-contact",
-    ]);
+    pose_frames(&rig_path, &plain, &n, &["--no-contact"]);
     let summary: Value = serde_json::from_slice(&out.stdout).expect("JSON summary");
     assert_eq!(summary["contact"], true);
     assert_eq!(summary["config"], Value::Null);
@@ -371,24 +370,8 @@ fn diagnostics_hold_the_documented_fields() {
     let l = scenes::load("capsule_pair", 7);
     let rig_path = committed("capsule_pair");
     let (diag_dir, plain) = (tmp("diag"), tmp("diag0"));
-    pose(&[
-        "pose",
-        s(&rig_path),
-        "--out",
-        s(&diag_dir),
-        "--frames",
-        "7",
-        "--diagnostics",
-    ]);
-    pose(&[
-        "pose",
-        s(&rig_path),
-        "--out",
-        s(&plain),
-        "--frames",
-        "7",
-        "--no-contact",
-    ]);
+    pose_frames(&rig_path, &diag_dir, "7", &["--diagnostics"]);
+    pose_frames(&rig_path, &plain, "7", &["--no-contact"]);
     assert!(!diag_dir.join("frame_0007.diag.json").exists());
     assert!(!plain.join("frame_0000.diag.json").exists());
     let mut deformed = 0;
@@ -501,31 +484,14 @@ fn a_painted_map_of_zeros_removes_the_bulge_of_its_body() {
     )
     .expect("config");
     let (painted, plain) = (dir.join("painted"), dir.join("default"));
-    let out = pose(&[
-        "pose",
-        s(&rig_path),
-        "--out",
-        s(&painted),
-        "--frames",
-        "7",
-        "--diagnostics",
-        "--json",
-    ]);
+    let out = pose_frames(&rig_path, &painted, "7", &["--diagnostics", "--json"]);
     let summary: Value = serde_json::from_slice(&out.stdout).expect("summary");
     assert_eq!(
         summary["config"],
         s(&config),
         "the rig's own config is found"
     );
-    pose(&[
-        "pose",
-        s(&committed("capsule_pair")),
-        "--out",
-        s(&plain),
-        "--frames",
-        "7",
-        "--diagnostics",
-    ]);
+    pose_frames(&committed("capsule_pair"), &plain, "7", &["--diagnostics"]);
     let (mut changed, mut bulged) = (0, 0);
     for i in 0..7 {
         let p = obj_bodies(&painted.join(format!("frame_{i:04}.obj")), &l.rig);
@@ -740,27 +706,11 @@ fn self_contact_follows_its_configuration() {
     let config = dir.join("bending_capsule.contact.toml");
     std::fs::write(&config, "[self_contact]\nenabled = false\n").expect("config");
     let (off, plain) = (dir.join("off"), dir.join("plain"));
-    let out = pose(&[
-        "pose",
-        s(&rig_path),
-        "--out",
-        s(&off),
-        "--frames",
-        "5",
-        "--json",
-    ]);
+    let out = pose_frames(&rig_path, &off, "5", &["--json"]);
     let summary: Value = serde_json::from_slice(&out.stdout).expect("summary");
     assert_eq!(summary["config"], s(&config));
     assert_eq!(summary["self_contact"], false);
-    pose(&[
-        "pose",
-        s(&rig_path),
-        "--out",
-        s(&plain),
-        "--frames",
-        "5",
-        "--no-contact",
-    ]);
+    pose_frames(&rig_path, &plain, "5", &["--no-contact"]);
     for i in 0..5 {
         let name = format!("frame_{i:04}.obj");
         assert_eq!(
@@ -796,15 +746,7 @@ fn self_contact_follows_its_configuration() {
     );
     assert!(!dir.join("bad").join("frame_0000.obj").exists());
     // ... but --no-self-contact does not read the table's pairs.
-    pose(&[
-        "pose",
-        s(&rig_path),
-        "--out",
-        s(&dir.join("bad")),
-        "--frames",
-        "2",
-        "--no-self-contact",
-    ]);
+    pose_frames(&rig_path, &dir.join("bad"), "2", &["--no-self-contact"]);
     let _ = std::fs::remove_dir_all(&dir);
 }
 
