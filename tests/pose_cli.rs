@@ -18,6 +18,20 @@ fn tmp(name: &str) -> PathBuf {
     d
 }
 
+/// The stage timings of the JSON summary (`stage_ms`) and of the diagnostics (`timings_s`).
+const STAGES: [&str; 10] = [
+    "setup",
+    "intersection",
+    "mapping",
+    "zones",
+    "parametrization",
+    "directions",
+    "fields",
+    "deformation",
+    "factorization",
+    "wall",
+];
+
 fn pose(args: &[&str]) -> std::process::Output {
     let out = Command::new(env!("CARGO_BIN_EXE_contact-skin"))
         .args(args)
@@ -315,16 +329,7 @@ fn contact_resolves_the_capsule_pair_and_does_not_depend_on_threads() {
     assert_eq!(summary["contact"], true);
     assert_eq!(summary["config"], Value::Null);
     assert_eq!(summary["passes"], 2);
-    for stage in [
-        "intersection",
-        "mapping",
-        "zones",
-        "parametrization",
-        "directions",
-        "fields",
-        "deformation",
-        "wall",
-    ] {
+    for stage in STAGES {
         assert!(summary["stage_ms"][stage].as_f64().expect(stage) >= 0.0);
     }
     let (mut in_contact, mut before_total, mut after_total) = (0, 0, 0);
@@ -379,17 +384,7 @@ fn diagnostics_hold_the_documented_fields() {
         let d = read_json(&diag_dir.join(format!("frame_{i:04}.diag.json")));
         assert_eq!(d["frame"], i);
         assert_eq!(d["time"].as_f64(), Some(l.times[i]));
-        for key in [
-            "setup",
-            "intersection",
-            "mapping",
-            "zones",
-            "parametrization",
-            "directions",
-            "fields",
-            "deformation",
-            "wall",
-        ] {
+        for key in STAGES {
             assert!(d["timings_s"][key].is_number(), "timings_s.{key}");
         }
         let out = obj_bodies(&diag_dir.join(format!("frame_{i:04}.obj")), &l.rig);

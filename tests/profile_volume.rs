@@ -45,16 +45,8 @@ const PROFILES: [(f64, f64); 10] = [
     (0.0, 3.0),
 ];
 
-/// Profiles with a well-defined slope at u = 0 (a > 0), with `cos θ ≥ 1e-3`.
-const SLOPED: [(f64, f64); 7] = [
-    (1.0, 0.0),
-    (1.0, 1.0),
-    (0.3, -2.0),
-    (0.1, 3.0),
-    (0.05, 40.0),
-    (0.01, 20.0),
-    (2.0, -500.0),
-];
+/// Profiles with a well-defined slope at u = 0 (a > 0), with `cos θ ≥ 1e-3`: the first seven.
+const SLOPED: &[(f64, f64)] = PROFILES.split_at(7).0;
 
 const BULGES: [f64; 4] = [0.0, 0.7, -0.3, 5.0];
 
@@ -92,7 +84,7 @@ fn profile_starts_at_minus_amplitude() {
 /// extrapolation; the step shrinks with cos²θ because the curvature of H(u) grows as 1/cos³θ.
 #[test]
 fn slope_at_zero_is_s() {
-    for &(a, s) in &SLOPED {
+    for &(a, s) in SLOPED {
         let p = Profile::new(a, s);
         let eps = 1e-5 * p.theta().cos().powi(2);
         for &y2 in &BULGES {
@@ -227,7 +219,7 @@ fn largest_slope_jump(p: &Profile, y2: f64, n: usize) -> f64 {
 /// step (a kink anywhere would keep it constant).
 #[test]
 fn profile_is_c1_in_u() {
-    for &(a, s) in &SLOPED {
+    for &(a, s) in SLOPED {
         let p = Profile::new(a, s);
         for &y2 in &BULGES {
             let h = |u: f64| p.displacement_at(u, y2);
