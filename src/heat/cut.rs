@@ -250,7 +250,9 @@ impl CutMesh {
     fn assemble(&mut self, region: &Region) {
         let n = self.n;
         let mut k = vec![0.0; n + region.edges.len()];
-        for (t, g) in self.triangles.iter().zip(&self.geometry) {
+        for ((t, g), &parent) in self.triangles.iter().zip(&self.geometry).zip(&self.parent) {
+            let original = region.triangles[parent as usize];
+            let edges = region.face_edges[parent as usize];
             for i in 0..3 {
                 let vi = t[i];
                 if (vi as usize) < n && self.role[vi as usize] == Role::Free {
@@ -265,8 +267,10 @@ impl CutMesh {
                     if let Some(d) = self.dirichlet_of(vj) {
                         self.couplings.push((vi, d, w));
                     } else if vi < vj {
-                        if let Some(e) = region.edge(vi, vj) {
-                            k[n + e as usize] += w;
+                        // Two original vertices of a piece of `parent`: an edge of `parent`,
+                        // the one opposite its third corner.
+                        if let Some(c) = original.iter().position(|&x| x != vi && x != vj) {
+                            k[n + edges[c] as usize] += w;
                         }
                     }
                 }
