@@ -23,7 +23,7 @@
 //! threshold = 0.05                # RegionOptions::threshold
 //! grow_rings = 2
 //! stiffness = 0.5                 # k̄ of the parent side, in [0, 1]
-//! tau = 0.0
+//! tau = -1.0                      # the paper's Fig. 13 and 15 (default)
 //! joint_extent = 1.75             # φ̄ × the joint's size (default); or extent / extent_factor
 //! gamma = 1.0
 //! omega = 2.0

@@ -167,11 +167,12 @@ fn bending_capsule_fold() {
 }
 
 /// The same bend with Center-of-Rotation and dual-quaternion skinning as input: resolved with
-/// the volume kept, but not yet at the issue's targets (see the issue note): up to 5
-/// penetrating vertices at 140-150°, up to 30 faces turned at the crease's bottom (both
-/// measured; before the buried band got the crease's intersection terms: CoR 19 and 57, DQS 22
-/// and 61), and the temporal ratio reaches 23 (the profile around the sharp crease is large,
-/// about 2.5 h, and a crease vertex joining a zone jumps).
+/// the volume kept, but not yet at the issue's targets (see the issue note): up to 3
+/// penetrating vertices at 140-150°, up to 18 faces turned at the crease's bottom (both
+/// measured with the paper's `τ = -1`; with `τ = 0`: CoR 5 and 30, DQS 2 and 22; before the
+/// buried band got the crease's intersection terms: CoR 19 and 57, DQS 22 and 61), and the
+/// temporal ratio reaches 25 (the profile around the sharp crease is large, about 2.5 h, and a
+/// crease vertex joining a zone jumps).
 fn volume_preserving_input(method: Method) {
     let r = run_with("bending_capsule", 31, &[], method);
     assert!(
@@ -183,13 +184,13 @@ fn volume_preserving_input(method: Method) {
         assert_eq!(x.nan, 0, "{method:?} frame {f}: NaN");
         assert!(x.volume_error < 1e-4, "{method:?} frame {f}: volume");
         assert!(
-            x.after <= 5,
+            x.after <= 3,
             "{method:?} frame {f}: penetration {} -> {}",
             x.before,
             x.after
         );
         assert!(
-            x.turned.turned <= 35,
+            x.turned.turned <= 20,
             "{method:?} frame {f}: {} faces turned",
             x.turned.turned
         );
@@ -211,7 +212,7 @@ fn bending_capsule_fold_dqs() {
 fn finger_folds() {
     let r = run("finger", 31, &[]);
     assert_eq!(r.pairs.len(), 3);
-    check("finger", &r, 6, 3, 3.0);
+    check("finger", &r, 1, 3, 3.0);
 }
 
 /// The mouth closing, with the paper's hand-set vertical direction (Fig. 1d): the upper lip's
