@@ -8,13 +8,14 @@
 //! Run with `cargo bench --bench selfcontact`.
 
 use contact_skin::frames::{self, Precomputed};
-use contact_skin::report::timings::median_folds;
+use contact_skin::report::timings::{median, median_folds};
 use contact_skin::rig::Rig;
 use contact_skin::selfcontact::fold::{FoldParams, FoldTimings};
 use contact_skin::selfcontact::pass::SelfContactPass;
 use contact_skin::selfcontact::RegionOptions;
 use contact_skin::skinning::Method;
 use criterion::{criterion_group, criterion_main, Criterion};
+use std::collections::BTreeMap;
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
@@ -46,6 +47,8 @@ fn setup(name: &str, passes: usize) -> (Rig, Precomputed, SelfContactPass, Vec<f
 fn breakdown(name: &str, passes: usize, threads: usize) {
     let (rig, pre, pass, times) = setup(name, passes);
     let mut rows: Vec<(FoldTimings, f64)> = Vec::new();
+    // Per joint pair: the time of each of its folds (one joint: the paper's Table 1 frame).
+    let mut per_pair: BTreeMap<String, Vec<f64>> = BTreeMap::new();
     for &t in &times {
         let mut pos = frames::welded_positions(&rig, &pre, Some(0), t);
         let pose = rig.pose_at(Some(0), t);
@@ -54,6 +57,10 @@ fn breakdown(name: &str, passes: usize, threads: usize) {
         let wall = start.elapsed().as_secs_f64();
         if !out.folds.is_empty() {
             rows.push((out.timings, wall));
+        }
+        for fold in &out.folds {
+            let ms = 1e3 * fold.output.timings.total();
+            per_pair.entry(fold.name.clone()).or_default().push(ms);
         }
     }
     let m = median_folds(&rows);
@@ -71,6 +78,10 @@ fn breakdown(name: &str, passes: usize, threads: usize) {
         ("wall", m.wall),
     ] {
         println!("  {label:<22} {ms:>8.3} ms");
+    }
+    for (pair, ms) in per_pair {
+        let n = ms.len();
+        println!("  one fold of {pair}: median {:.3} ms over {n} folds", median(ms));
     }
 }
 

@@ -155,6 +155,18 @@ pub struct FoldTimings {
     pub volume: f64,
 }
 
+impl FoldTimings {
+    /// The fold's whole time: the sum of its steps.
+    pub fn total(&self) -> f64 {
+        self.detection
+            + self.crease
+            + self.contact
+            + self.directions
+            + self.deformation
+            + self.volume
+    }
+}
+
 /// The result of one fold in one frame.
 #[derive(Clone, Debug)]
 pub struct FoldOutput {
