@@ -633,9 +633,10 @@ fn self_contact_resolves_the_bending_capsule_and_does_not_depend_on_threads() {
                 assert_eq!(sizes.len(), 2);
                 zoned |= sizes.iter().all(|&z| z > 0);
                 assert!(f["sweep"].as_u64().is_some(), "sweep");
-                for key in ["threshold", "crease_cut", "bulge_height"] {
+                for key in ["threshold", "crease_cut", "bulge_height", "bulge_steepness"] {
                     assert!(f[key].as_f64().expect(key).is_finite(), "{key}");
                 }
+                assert_eq!(f["unbalanced"], false, "the capsule's folds are balanced");
                 for key in [
                     "detection",
                     "crease",

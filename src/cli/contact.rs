@@ -242,7 +242,7 @@ pub struct FrameDiagnostics {
     pub folds: Vec<FoldDiagnostics>,
     /// Joint pairs skipped by the self-contact pass for want of a direction (full 180° fold).
     pub folds_without_direction: usize,
-    /// Folds left unresolved because no bulge could keep the volume.
+    /// Folds left unresolved because no bulge could keep the volume without a spike.
     pub folds_unbalanced: usize,
     /// Wall time of the self-contact pass (s; 0 when it is off).
     pub self_contact_s: f64,
@@ -269,6 +269,12 @@ pub struct FoldDiagnostics {
     pub crease_stray: usize,
     /// The common bulge height (0 on an open mesh).
     pub bulge_height: f64,
+    /// The largest bulge displacement over its band's width (`FoldOutput::bulge_steepness`;
+    /// `null` for a bulge on a zero-width band).
+    pub bulge_steepness: f64,
+    /// Left unresolved: no bulge could keep the volume without a spike (the output is the
+    /// fold's input).
+    pub unbalanced: bool,
     /// Step timings of the fold in seconds.
     pub timings_s: FoldTimings,
 }
@@ -392,6 +398,8 @@ pub fn diagnostics(rig: &Rig, pre: &Precomputed, c: &ContactFrame) -> FrameDiagn
                 crease_cut: o.crease.value,
                 crease_stray: o.crease.stray,
                 bulge_height: o.bulge_height,
+                bulge_steepness: o.bulge_steepness,
+                unbalanced: o.unbalanced,
                 timings_s: o.timings,
             }
         })

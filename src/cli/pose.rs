@@ -128,7 +128,8 @@ struct Summary {
     folds: Vec<String>,
     /// Joint pairs skipped for want of a direction (full 180° fold), summed over the frames.
     folds_without_direction: usize,
-    /// Folds left unresolved because no bulge could keep the volume, summed over the frames.
+    /// Folds left unresolved because no bulge could keep the volume without a spike, summed
+    /// over the frames.
     folds_unbalanced: usize,
     /// Median time of the self-contact pass per frame (ms), over all frames.
     self_contact_ms: Option<f64>,
@@ -426,7 +427,7 @@ fn print_summary(s: &Summary, a: &Args) -> CliResult {
         }
         if s.folds_unbalanced > 0 {
             println!(
-                "self-contact: {} fold(s) left unresolved: no bulge could keep the volume",
+                "self-contact: {} fold(s) left unresolved: no bulge could keep the volume without a spike",
                 s.folds_unbalanced
             );
         }

@@ -44,7 +44,7 @@ pub struct SelfPassOutput {
     pub timings: FoldTimings,
     /// Folds skipped because no direction exists (full 180° fold).
     pub no_direction: usize,
-    /// Folds left unresolved because no bulge could keep the volume
+    /// Folds left unresolved because no bulge could keep the volume without a spike
     /// ([`crate::selfcontact::fold::FoldOutput::unbalanced`]).
     pub unbalanced: usize,
 }
