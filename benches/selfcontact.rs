@@ -81,7 +81,10 @@ fn breakdown(name: &str, passes: usize, threads: usize) {
     }
     for (pair, ms) in per_pair {
         let n = ms.len();
-        println!("  one fold of {pair}: median {:.3} ms over {n} folds", median(ms));
+        println!(
+            "  one fold of {pair}: median {:.3} ms over {n} folds",
+            median(ms)
+        );
     }
 }
 
