@@ -84,6 +84,12 @@ fn sign(x: f64) -> f64 {
     }
 }
 
+/// Ray casts of the bisection that places a boundary point of `M_l` on an edge with neither an
+/// intersection point nor a quad crossing: the point is found to `2^-16` of the edge (1.5e-5
+/// edge lengths). Each step casts one ray; these rays outnumbered the mapping's own by 12 to 1
+/// on the finger at the former 30 steps (47 bisected edges per fold, 119 mapping rays).
+pub const BISECTION_STEPS: usize = 16;
+
 /// The samples of one side: at its mapped vertices, and at the boundary of its mapping region
 /// on every edge leaving it.
 #[derive(Clone, Debug, Default)]
@@ -94,7 +100,7 @@ pub struct SideSamples {
     /// boundary point of `M_l`, and its sample.
     pub boundary: HashMap<(u32, u32), (f64, SurfaceSample)>,
     /// Boundary points found by bisection of ray hits (no intersection point nor quad on the
-    /// edge): approximate to `2^-30` of the edge.
+    /// edge): approximate to `2^-BISECTION_STEPS` of the edge.
     pub bisected: usize,
 }
 
@@ -195,7 +201,7 @@ impl SideInput<'_, '_, '_> {
             target_normal: Vector3::zeros(),
         });
         let (mut lo, mut hi) = (0.0, 1.0);
-        for _ in 0..30 {
+        for _ in 0..BISECTION_STEPS {
             let mid = 0.5 * (lo + hi);
             match map_point(
                 self.other,
