@@ -328,6 +328,58 @@ fn crease_cut_follows_the_silhouette() {
     );
 }
 
+/// The same check through the pass (one sweep, so that each fold's input is the previous
+/// fold's output) on every frame with a fold of the finger's three joints and of the capsule
+/// with CoR and DQS input. Measured: within one ring everywhere. Not the mouth: its shared
+/// region is a ring round each corner, bordered on the lips' side by both the upper (head) and
+/// the lower lip (jaw), and the cut has to close across the top of that ring, through normals
+/// facing `d̂`: 8 rings from the silhouette there (measured, in every frame with a fold).
+#[test]
+fn crease_cut_follows_the_silhouette_on_every_rig() {
+    use contact_skin::selfcontact::derive_pairs;
+    for (name, method) in [
+        ("finger", Method::Lbs),
+        ("bending_capsule", Method::Cor),
+        ("bending_capsule", Method::Dqs),
+    ] {
+        let l = load_with(name, 31, method);
+        let pass = self_pass(&l, &[]).with_passes(1);
+        let pairs = derive_pairs(&l.rig, &l.pre.welded, &RegionOptions::default()).expect("pairs");
+        let (mut worst, mut cuts) = (0, 0);
+        for f in 0..31 {
+            let mut out = l.frame(f);
+            let pose = l.rig.pose_at(Some(0), l.times[f]);
+            let mut before = out.clone();
+            let res = pass.run(&l.rig, &pose, &mut out).expect("pass runs");
+            for fold in &res.folds {
+                let b = fold.body;
+                let r = pairs
+                    .iter()
+                    .find(|p| p.pair.name == fold.name)
+                    .expect("a derived pair");
+                let shared: Vec<bool> = r.w1.iter().zip(&r.w2).map(|(a, b)| *a && *b).collect();
+                let normals = vertex_normals(&before[b], &l.triangles[b], NormalWeighting::Area);
+                let dist = crease_distance_to_silhouette(
+                    &l.triangles[b],
+                    &normals,
+                    &fold.output.crease.on_w1,
+                    &shared,
+                    &fold.direction,
+                );
+                worst = worst.max(dist);
+                cuts += 1;
+                before[b].clone_from(&fold.output.positions);
+            }
+        }
+        println!("{name} ({method:?}): {cuts} crease cuts, within {worst} rings of the silhouette");
+        assert!(cuts > 0, "{name}: folds");
+        assert!(
+            worst <= 1,
+            "{name} ({method:?}): the crease cut strays {worst} rings"
+        );
+    }
+}
+
 /// Largest topological distance (in rings) from a vertex of a cut edge of the shared region to
 /// the silhouette of the shared region seen from `d̂`.
 fn crease_distance_to_silhouette(
