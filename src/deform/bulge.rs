@@ -223,8 +223,8 @@ fn normalize(raw: Vec<f64>, floor: f64) -> Vec<f64> {
 ///
 /// Samples with a non-finite field, `A δ ≤ 0`, or (for `ω > 0`) a zero push are skipped. With
 /// no usable sample the map is isotropic: `η = 1` everywhere. A non-finite point gets `λ`.
-/// Parallel over points (rayon) when large; every point sums its samples in order, so the
-/// result does not depend on the thread count.
+/// Parallel over points (rayon) when large; every point sums its samples in a fixed order (four
+/// lanes, see `Emitters::sum`), so the result does not depend on the thread count.
 pub fn procedural_bulge(
     points: &[Point3<f64>],
     samples: &[ContactSample],
