@@ -27,9 +27,11 @@
 //! joint_extent = 1.75             # φ̄ × the joint's size (default); or extent / extent_factor
 //! gamma = 1.0
 //! omega = 2.0
+//! direction = "skeleton"          # every pair's default: "skeleton" or "motion"
 //! [[self_contact.pair]]
 //! name = "lips/head-jaw"          # a derived joint pair (`contact-skin info`)
-//! direction = [0.0, -1.0, 0.0]    # W1's (parent side's) outward direction at the fold
+//! direction = [0.0, -1.0, 0.0]    # W1's (parent side's) outward direction at the fold,
+//!                                 # or "skeleton", or "motion" (relative motion of the parts)
 //! ```
 //!
 //! [`ContactConfig::load`] parses and checks every number (no rig needed);
@@ -44,6 +46,7 @@ use crate::pass::{DirectionTrack, ObjectParams, PairOverride, DEFAULT_PASSES};
 use crate::rig::{Confinement, Rig};
 use crate::selfcontact::fold::FoldParams;
 use crate::selfcontact::pass::DEFAULT_FOLD_PASSES;
+use crate::selfcontact::DirectionSource;
 use crate::selfcontact::{derive_pairs, RegionOptions, SelfContactError};
 use nalgebra::Vector3;
 use serde::de::{self, Deserializer, Visitor};
@@ -253,6 +256,54 @@ impl<'de> Deserialize<'de> for Stiffness {
     }
 }
 
+/// A self-contact pair's mapping direction as written: `[x, y, z]` (W1's outward direction at
+/// the fold), `"skeleton"` (the bones' bisector, the default) or `"motion"` (the relative
+/// motion of the parts where they meet).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SelfDirection(pub DirectionSource);
+
+impl<'de> Deserialize<'de> for SelfDirection {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = SelfDirection;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("[x, y, z], \"skeleton\" or \"motion\"")
+            }
+            fn visit_str<E: de::Error>(self, v: &str) -> Result<SelfDirection, E> {
+                direction_mode(v)
+                    .map(SelfDirection)
+                    .ok_or_else(|| E::invalid_value(de::Unexpected::Str(v), &self))
+            }
+            fn visit_seq<A: de::SeqAccess<'de>>(
+                self,
+                mut seq: A,
+            ) -> Result<SelfDirection, A::Error> {
+                let mut v = [0.0; 3];
+                for (k, x) in v.iter_mut().enumerate() {
+                    *x = seq
+                        .next_element()?
+                        .ok_or_else(|| de::Error::invalid_length(k, &self))?;
+                }
+                if seq.next_element::<f64>()?.is_some() {
+                    return Err(de::Error::invalid_length(4, &self));
+                }
+                Ok(SelfDirection(DirectionSource::Fixed(Vector3::from(v))))
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+/// `"skeleton"` or `"motion"`.
+fn direction_mode(name: &str) -> Option<DirectionSource> {
+    match name {
+        "skeleton" => Some(DirectionSource::Skeleton),
+        "motion" => Some(DirectionSource::Motion),
+        _ => None,
+    }
+}
+
 /// A body, by name or by index.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum BodyRef {
@@ -415,6 +466,9 @@ pub struct SelfContactSpec {
     pub gamma: Option<f64>,
     /// `ω`.
     pub omega: Option<f64>,
+    /// Where the pairs without a `[[self_contact.pair]]` direction take theirs from:
+    /// `"skeleton"` (default) or `"motion"`.
+    pub direction: Option<SelfDirection>,
     /// Per-pair settings.
     #[serde(default, rename = "pair")]
     pub pairs: Vec<SelfPairSpec>,
@@ -426,8 +480,9 @@ pub struct SelfContactSpec {
 pub struct SelfPairSpec {
     /// The pair's name as derived (`body/parent-child`, listed by `contact-skin info`).
     pub name: String,
-    /// The mapping direction `d̂_12`: W1's (the parent side's) outward direction at the fold.
-    pub direction: [f64; 3],
+    /// The mapping direction `d̂_12`: W1's (the parent side's) outward direction at the fold,
+    /// or where it comes from.
+    pub direction: SelfDirection,
 }
 
 /// The self-contact pass settings resolved from a configuration: the inputs of
@@ -440,8 +495,9 @@ pub struct SelfContactSettings {
     pub regions: RegionOptions,
     /// Parameters of every fold.
     pub params: FoldParams,
-    /// User directions by pair name (normalized).
-    pub directions: Vec<(String, Vector3<f64>)>,
+    /// Where each pair's direction comes from, by pair name (fixed directions normalized);
+    /// pairs not listed use the skeleton's.
+    pub directions: Vec<(String, DirectionSource)>,
     /// Sweeps over the folds per frame.
     pub passes: usize,
 }
@@ -694,9 +750,17 @@ impl ContactConfig {
                     first: format!("{at}.pair[{first}]"),
                 });
             }
-            if unit(&p.direction).is_none() {
-                return Err(self.invalid(format!("{field}.direction"), "is zero or not finite"));
+            if let DirectionSource::Fixed(d) = p.direction.0 {
+                if unit(&[d.x, d.y, d.z]).is_none() {
+                    return Err(self.invalid(format!("{field}.direction"), "is zero or not finite"));
+                }
             }
+        }
+        if matches!(sc.direction, Some(SelfDirection(DirectionSource::Fixed(_)))) {
+            return Err(self.invalid(
+                format!("{at}.direction"),
+                "must be \"skeleton\" or \"motion\" (a fixed direction is set per pair)",
+            ));
         }
         Ok(())
     }
@@ -1083,7 +1147,7 @@ impl ContactConfig {
             params.deform.extent = extent;
             params.joint_extent = None;
         }
-        let mut directions = Vec::with_capacity(spec.pairs.len());
+        let mut directions = Vec::with_capacity(derived.len());
         for (j, p) in spec.pairs.iter().enumerate() {
             let at = format!("self_contact.pair[{j}]");
             if !derived.iter().any(|(_, n)| *n == p.name) {
@@ -1094,9 +1158,24 @@ impl ContactConfig {
                     available: list_pairs(derived),
                 });
             }
-            let d = unit(&p.direction)
-                .ok_or_else(|| self.invalid(format!("{at}.direction"), "is zero or not finite"))?;
-            directions.push((p.name.clone(), d));
+            let source = match p.direction.0 {
+                DirectionSource::Fixed(d) => {
+                    let d = unit(&[d.x, d.y, d.z]).ok_or_else(|| {
+                        self.invalid(format!("{at}.direction"), "is zero or not finite")
+                    })?;
+                    DirectionSource::Fixed(d)
+                }
+                other => other,
+            };
+            directions.push((p.name.clone(), source));
+        }
+        // The section's mode for every other derived pair.
+        if let Some(SelfDirection(mode)) = spec.direction {
+            for (_, name) in derived {
+                if !directions.iter().any(|(n, _)| n == name) {
+                    directions.push((name.clone(), mode));
+                }
+            }
         }
         Ok(SelfContactSettings {
             enabled: self.self_contact_enabled(),

@@ -608,9 +608,10 @@ fn non_finite_attribute_values_are_refused() {
 // ---------------------------------------------------------------------------------------------
 // [self_contact]
 
-use contact_skin::config::{SelfContactSettings, SelfPairSpec};
+use contact_skin::config::{SelfContactSettings, SelfDirection, SelfPairSpec};
 use contact_skin::selfcontact::fold::FoldParams;
 use contact_skin::selfcontact::pass::DEFAULT_FOLD_PASSES;
+use contact_skin::selfcontact::DirectionSource;
 use contact_skin::selfcontact::RegionOptions;
 
 /// A copy of `rigs/mouth.glb` (body `lips`, joints `head` and `jaw`: one derived pair,
@@ -661,7 +662,7 @@ fn the_self_contact_table_parses_and_resolves() {
         spec.pairs,
         vec![SelfPairSpec {
             name: "lips/head-jaw".into(),
-            direction: [0.0, -2.0, 0.0],
+            direction: SelfDirection(DirectionSource::Fixed(Vector3::new(0.0, -2.0, 0.0))),
         }]
     );
     assert!(cfg.self_contact_enabled());
@@ -685,7 +686,10 @@ fn the_self_contact_table_parses_and_resolves() {
             grow_rings: 3,
         },
         params,
-        directions: vec![("lips/head-jaw".into(), -Vector3::y())],
+        directions: vec![(
+            "lips/head-jaw".into(),
+            DirectionSource::Fixed(-Vector3::y()),
+        )],
         passes: 1,
     };
     assert_eq!(settings, expected);
@@ -891,6 +895,65 @@ fn bad_self_contact_values_are_typed_errors_naming_the_field() {
         other => panic!("{other:?}"),
     }
     check_names(&e, &dir, "self_contact.pair[1].name");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `"skeleton"` and `"motion"` per pair, `[self_contact] direction` as the other pairs'
+/// default; anything else is an error naming the field.
+#[test]
+fn self_contact_direction_modes_parse_and_resolve() {
+    let dir = mouth_dir("self-modes");
+    let cfg = write_config(
+        &dir,
+        "[self_contact]\ndirection = \"motion\"\n[[self_contact.pair]]\nname = \"lips/head-jaw\"\ndirection = \"skeleton\"\n",
+    )
+    .expect("parses");
+    let (rig, welded) = load_mouth(&dir);
+    let derived = [
+        (0, "lips/head-jaw".to_string()),
+        (0, "lips/other-pair".to_string()),
+    ];
+    let settings = cfg
+        .resolve_self_contact_with(&rig, &derived)
+        .expect("resolves");
+    assert_eq!(
+        settings.directions,
+        vec![
+            ("lips/head-jaw".to_string(), DirectionSource::Skeleton),
+            ("lips/other-pair".to_string(), DirectionSource::Motion),
+        ]
+    );
+    let cfg = write_config(
+        &dir,
+        "[[self_contact.pair]]\nname = \"lips/head-jaw\"\ndirection = \"motion\"\n",
+    )
+    .expect("parses");
+    let settings = cfg.resolve_self_contact(&rig, &welded).expect("resolves");
+    assert_eq!(
+        settings.directions,
+        vec![("lips/head-jaw".to_string(), DirectionSource::Motion)]
+    );
+    for (text, field) in [
+        (
+            "[[self_contact.pair]]\nname = \"lips/head-jaw\"\ndirection = \"sideways\"\n",
+            "self_contact.pair[0].direction",
+        ),
+        (
+            "[[self_contact.pair]]\nname = \"lips/head-jaw\"\ndirection = [0, 1, 0, 1]\n",
+            "self_contact.pair[0].direction",
+        ),
+        (
+            "[self_contact]\ndirection = \"up\"\n",
+            "self_contact.direction",
+        ),
+    ] {
+        let e = write_config(&dir, text).expect_err(text);
+        assert!(matches!(e, ConfigError::Parse { .. }), "{text}: {e:?}");
+        check_names(&e, &dir, field);
+    }
+    let e = write_config(&dir, "[self_contact]\ndirection = [0, 1, 0]\n").expect_err("vector");
+    assert!(matches!(e, ConfigError::Invalid { .. }), "{e:?}");
+    check_names(&e, &dir, "self_contact.direction");
     let _ = std::fs::remove_dir_all(&dir);
 }
 

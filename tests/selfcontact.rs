@@ -7,12 +7,12 @@ use contact_skin::mesh::operators::{vertex_normals, NormalWeighting};
 use contact_skin::report::metrics;
 use contact_skin::selfcontact::fold::FoldParams;
 use contact_skin::selfcontact::pass::SelfContactPass;
-use contact_skin::selfcontact::RegionOptions;
+use contact_skin::selfcontact::{DirectionSource, RegionOptions};
 use contact_skin::skinning::Method;
 use nalgebra::{Point3, Vector3};
 use scenes::{load, load_with, welded_positions, Loaded};
 
-fn self_pass(l: &Loaded, directions: &[(String, Vector3<f64>)]) -> SelfContactPass {
+fn self_pass(l: &Loaded, directions: &[(String, DirectionSource)]) -> SelfContactPass {
     let rest = welded_positions(&l.rig, &l.pre, 0.0, None);
     SelfContactPass::new(
         &l.rig,
@@ -54,14 +54,14 @@ struct Run {
     steepness: f64,
 }
 
-fn run(name: &str, frames: usize, directions: &[(String, Vector3<f64>)]) -> Run {
+fn run(name: &str, frames: usize, directions: &[(String, DirectionSource)]) -> Run {
     run_with(name, frames, directions, Method::Lbs)
 }
 
 fn run_with(
     name: &str,
     frames: usize,
-    directions: &[(String, Vector3<f64>)],
+    directions: &[(String, DirectionSource)],
     method: Method,
 ) -> Run {
     let l = load_with(name, frames, method);
@@ -229,7 +229,10 @@ fn finger_folds() {
 /// the output's largest second difference must halve like the input's (a pop keeps its size).
 #[test]
 fn mouth_closes() {
-    let dirs = [("lips/head-jaw".to_string(), -Vector3::y())];
+    let dirs = [(
+        "lips/head-jaw".to_string(),
+        DirectionSource::Fixed(-Vector3::y()),
+    )];
     let coarse = run("mouth", 31, &dirs);
     let fine = run("mouth", 61, &dirs);
     assert_eq!(coarse.pairs.len(), 1);
@@ -241,6 +244,59 @@ fn mouth_closes() {
         coarse.output_max,
         fine.output_max
     );
+}
+
+/// The mouth with the direction estimated from the relative motion of the parts (2021 Sec. 6)
+/// instead of set by hand: the same checks as with the vertical.
+#[test]
+fn mouth_closes_with_the_motion_direction() {
+    let dirs = [("lips/head-jaw".to_string(), DirectionSource::Motion)];
+    let r = run("mouth", 31, &dirs);
+    assert_eq!(r.pairs.len(), 1);
+    check("mouth (motion)", &r, 0, 0, 3.0);
+}
+
+/// The direction from the relative motion of the parts agrees with the skeleton's on the
+/// articulations (capsule, finger) and with the paper's hand-set vertical on the mouth, where
+/// the skeleton's does not apply (not an articulation), in every frame with a fold.
+/// Measured: capsule 0.0°, finger at most 6.8°, mouth at most 6.9°.
+#[test]
+fn the_motion_direction_agrees_with_the_skeleton_and_the_vertical() {
+    use contact_skin::selfcontact::{derive_pairs, skeleton_direction, BoneAxes};
+    for (name, bound) in [("bending_capsule", 1.0), ("finger", 10.0), ("mouth", 10.0)] {
+        let l = load(name, 31);
+        let pairs = derive_pairs(&l.rig, &l.pre.welded, &RegionOptions::default()).expect("pairs");
+        let motion: Vec<(String, DirectionSource)> = pairs
+            .iter()
+            .map(|p| (p.pair.name.clone(), DirectionSource::Motion))
+            .collect();
+        let pass = self_pass(&l, &motion).with_passes(1);
+        let (mut worst, mut folds) = (0.0f64, 0);
+        for f in 0..31 {
+            let mut out = l.frame(f);
+            let pose = l.rig.pose_at(Some(0), l.times[f]);
+            let res = pass.run(&l.rig, &pose, &mut out).expect("pass runs");
+            assert_eq!(res.no_direction, 0, "{name} frame {f}: a direction exists");
+            for fold in &res.folds {
+                let p = pairs
+                    .iter()
+                    .find(|p| p.pair.name == fold.name)
+                    .expect("a derived pair");
+                let reference = if name == "mouth" {
+                    -Vector3::y()
+                } else {
+                    let axes = BoneAxes::new(&l.rig, &l.pre.welded[p.pair.body], p);
+                    skeleton_direction(&l.rig, &pose, &p.pair, axes.leaf_axis).expect("skeleton")
+                };
+                let cosine = fold.direction.dot(&reference).clamp(-1.0, 1.0);
+                worst = worst.max(cosine.acos().to_degrees());
+                folds += 1;
+            }
+        }
+        println!("{name}: {folds} folds, motion direction within {worst:.1}° of the reference");
+        assert!(folds > 0, "{name}: folds");
+        assert!(worst < bound, "{name}: {worst:.1}° from the reference");
+    }
 }
 
 /// The bending capsule's one fold, precomputed, for tests of single folds.

@@ -359,7 +359,7 @@ fn skeleton_direction_follows_the_bend() {
     for &t in &times {
         let pose = rig.pose_at(Some(anim), t);
         let d = skeleton_direction(rig, &pose, &p.pair, axes.leaf_axis).expect("direction");
-        let source = DirectionSource::Skeleton.direction(rig, &pose, &p.pair, &axes);
+        let source = DirectionSource::Skeleton.direction(rig, &pose, &p.pair, &axes, None);
         assert_eq!(source, Some(d));
         let at = |n: usize| pose.world[n].transform_point(&Point3::origin());
         let joint = at(p.pair.child_joint);
@@ -421,11 +421,11 @@ fn skeleton_direction_degenerates_only_at_a_full_fold() {
     assert!(skeleton_direction(rig, &rest, &p.pair, None).is_none());
     let fixed = DirectionSource::Fixed(Vector3::new(0.0, 3.0, 0.0));
     assert_eq!(
-        fixed.direction(rig, &rest, &p.pair, &axes),
+        fixed.direction(rig, &rest, &p.pair, &axes, None),
         Some(Vector3::y())
     );
     let zero = DirectionSource::Fixed(Vector3::zeros());
-    assert_eq!(zero.direction(rig, &rest, &p.pair, &axes), None);
+    assert_eq!(zero.direction(rig, &rest, &p.pair, &axes, None), None);
 }
 
 #[test]

@@ -18,6 +18,7 @@ use contact_skin::pass::StageTimings;
 use contact_skin::report::metrics;
 use contact_skin::rig::{self, Rig};
 use contact_skin::scenes::{self, Scene};
+use contact_skin::selfcontact::DirectionSource;
 use contact_skin::skinning::Method;
 use indicatif::{ProgressBar, ProgressStyle};
 use nalgebra::Point3;
@@ -85,7 +86,7 @@ struct SelfContactRow {
     frames: usize,
     /// The joint pairs of the pass.
     pairs: Vec<String>,
-    /// User directions by pair name (from the configuration).
+    /// Fixed user directions by pair name (from the configuration).
     directions: BTreeMap<String, [f64; 3]>,
     /// Frames where the pass resolved at least one fold.
     fold_frames: usize,
@@ -481,7 +482,10 @@ fn run_self_contact(
         directions: settings.map_or(BTreeMap::new(), |s| {
             s.directions
                 .iter()
-                .map(|(n, d)| (n.clone(), [d.x, d.y, d.z]))
+                .filter_map(|(n, d)| match d {
+                    DirectionSource::Fixed(d) => Some((n.clone(), [d.x, d.y, d.z])),
+                    _ => None,
+                })
                 .collect()
         }),
         fold_frames: timed.iter().filter(|(f, _)| f.fold_count() > 0).count(),

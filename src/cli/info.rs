@@ -5,6 +5,7 @@ use contact_skin::config::{self, ContactConfig};
 use contact_skin::mesh::{TopologyReport, WeldedMesh};
 use contact_skin::pass::DEFAULT_EXTENT_FACTOR;
 use contact_skin::rig::{self, Rig};
+use contact_skin::selfcontact::DirectionSource;
 use contact_skin::selfcontact::{derive_pairs, PairRegions};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -75,8 +76,10 @@ struct SelfPairInfo {
     shared: usize,
     /// How the regions were derived (thresholds, counts, the partition of unity).
     reason: String,
-    /// The user direction of `[[self_contact.pair]]`, normalized (`null`: from the skeleton).
+    /// The user direction of `[[self_contact.pair]]`, normalized (`null`: not fixed).
     direction: Option<[f64; 3]>,
+    /// Where the direction comes from: `"skeleton"`, `"fixed"` or `"motion"`.
+    direction_source: &'static str,
     /// The joint's size (diagonal of `R`'s rest bounding box).
     joint_size: f64,
     /// `φ̄` of this pair in scene units.
@@ -245,6 +248,11 @@ fn describe_self_contact(
         .map(|r| {
             let p = &r.pair;
             let joint_size = rest.get(p.body).map_or(f64::NAN, |x| r.joint_size(x));
+            let source = settings
+                .directions
+                .iter()
+                .find(|(n, _)| *n == p.name)
+                .map(|(_, d)| *d);
             SelfPairInfo {
                 joint_size,
                 extent: f.joint_extent.map_or(f.deform.extent, |k| k * joint_size),
@@ -255,11 +263,11 @@ fn describe_self_contact(
                 child: node(p.child_joint),
                 shared: r.shared.len(),
                 reason: r.reason.clone(),
-                direction: settings
-                    .directions
-                    .iter()
-                    .find(|(n, _)| *n == p.name)
-                    .map(|(_, d)| [d.x, d.y, d.z]),
+                direction: source.and_then(|d| match d {
+                    DirectionSource::Fixed(d) => Some([d.x, d.y, d.z]),
+                    _ => None,
+                }),
+                direction_source: source.unwrap_or(DirectionSource::Skeleton).label(),
             }
         })
         .collect();
@@ -307,9 +315,10 @@ fn print_self_contact(s: &SelfContactInfo) {
         println!("    no joint pair (no body is deformed by a parent and a child joint)");
     }
     for p in &s.pairs {
-        let direction = match p.direction {
-            Some(d) => format!("direction {d:?} (configured)"),
-            None => "direction from the skeleton".into(),
+        let direction = match (p.direction, p.direction_source) {
+            (Some(d), _) => format!("direction {d:?} (configured)"),
+            (None, "motion") => "direction from the relative motion of the parts".into(),
+            _ => "direction from the skeleton".into(),
         };
         println!(
             "    pair '{}' (body {} '{}', joints '{}' -> '{}'): shared region {} vertices, joint size {:.6}, extent {:.6}, {direction}",

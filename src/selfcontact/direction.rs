@@ -22,31 +22,86 @@ use nalgebra::{Matrix3, Matrix4, Point3, SymmetricEigen, Vector3};
 /// Below this norm a difference of unit vectors is a degenerate direction (a 180° fold).
 pub const DEGENERATE_NORM: f64 = 1e-9;
 
-/// Where the mapping direction of a pair comes from (2021 Sec. 6: from the skeleton, or set by
-/// hand, as the paper does for the lips).
+/// Where the mapping direction of a pair comes from (2021 Sec. 6: from the skeleton, set by
+/// hand as the paper does for the lips, or estimated from the relative motion of the parts).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum DirectionSource {
     /// [`skeleton_direction`] at every frame.
     Skeleton,
     /// A fixed world direction (normalized when used), `W1`'s outward direction.
     Fixed(Vector3<f64>),
+    /// [`motion_direction`] at every frame, where the parts meet in that frame.
+    Motion,
+}
+
+/// Where the two parts of a pair meet in a frame, for [`DirectionSource::Motion`].
+#[derive(Clone, Copy, Debug)]
+pub struct Meeting<'a> {
+    /// The rest pose (the pose of the rest positions).
+    pub rest_pose: &'a Pose,
+    /// Rest positions of the vertices where the parts meet (e.g. those of the faces crossing
+    /// the other part).
+    pub points: &'a [Point3<f64>],
 }
 
 impl DirectionSource {
     /// The unit direction `d̂_12` of `pair` at `pose` (`None` when degenerate: a 180° fold, a
-    /// zero fixed vector, a leaf joint without axis).
+    /// zero fixed vector, a leaf joint without axis, no relative motion where the parts meet,
+    /// or `Motion` without `meeting`).
     pub fn direction(
         &self,
         rig: &Rig,
         pose: &Pose,
         pair: &super::JointPair,
         axes: &BoneAxes,
+        meeting: Option<&Meeting>,
     ) -> Option<Vector3<f64>> {
         match self {
             DirectionSource::Skeleton => skeleton_direction(rig, pose, pair, axes.leaf_axis),
             DirectionSource::Fixed(v) => unit(*v),
+            DirectionSource::Motion => {
+                meeting.and_then(|m| motion_direction(pose, m.rest_pose, pair, m.points))
+            }
         }
     }
+
+    /// `"skeleton"`, `"fixed"` or `"motion"` (for reports).
+    pub fn label(&self) -> &'static str {
+        match self {
+            DirectionSource::Skeleton => "skeleton",
+            DirectionSource::Fixed(_) => "fixed",
+            DirectionSource::Motion => "motion",
+        }
+    }
+}
+
+/// `d̂_12` from the relative motion of the parts (2021 Sec. 6: "it is usually possible to
+/// estimate d̂ from the relative motion between the two parts"). Each part follows its joint
+/// rigidly since the rest pose, `A_j = world_j(pose) world_j(rest)^-1`; at a rest point `x`
+/// where the parts meet, part 2 has moved by `(A_2 - A_1) x` relative to part 1. `W1`'s
+/// outward direction faces the approaching part 2: `d̂_12 = -normalize(Σ (A_2 - A_1) x)` over
+/// `points` (rest positions). Time-independent: the pose and the rest pose only. `None` when a
+/// joint is missing or singular, or when the motions cancel (their sum below `1e-6` of the sum
+/// of their lengths: no common approach direction, e.g. a twist about the points).
+pub fn motion_direction(
+    pose: &Pose,
+    rest_pose: &Pose,
+    pair: &super::JointPair,
+    points: &[Point3<f64>],
+) -> Option<Vector3<f64>> {
+    let rigid = |joint: usize| -> Option<Matrix4<f64>> {
+        Some(pose.world.get(joint)? * rest_pose.world.get(joint)?.try_inverse()?)
+    };
+    let relative = rigid(pair.child_joint)? - rigid(pair.parent_joint)?;
+    let (mut sum, mut length) = (Vector3::zeros(), 0.0);
+    for x in points {
+        // The difference of two affine maps is not a point transform (its last row is 0).
+        let m = (relative * x.to_homogeneous()).xyz();
+        sum += m;
+        length += m.norm();
+    }
+    let norm = sum.norm();
+    (norm.is_finite() && length > 0.0 && norm > 1e-6 * length).then(|| -sum / norm)
 }
 
 /// How the child bone's far end of a pair is found.
@@ -205,4 +260,75 @@ pub fn skeleton_direction(
 fn unit(v: Vector3<f64>) -> Option<Vector3<f64>> {
     let n = v.norm();
     (n > 0.0 && n.is_finite()).then(|| v / n)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::selfcontact::JointPair;
+    use nalgebra::{Rotation3, Translation3};
+
+    fn pair() -> JointPair {
+        JointPair {
+            body: 0,
+            parent_joint: 0,
+            child_joint: 1,
+            name: "a/b".into(),
+        }
+    }
+
+    fn pose(parent: Matrix4<f64>, child: Matrix4<f64>) -> Pose {
+        Pose {
+            world: vec![parent, child],
+        }
+    }
+
+    #[test]
+    fn a_translated_part_approaches_against_its_motion() {
+        let rest = pose(Matrix4::identity(), Matrix4::new_translation(&Vector3::x()));
+        // The whole skeleton moved, and the child moved 0.3 up relative to the parent.
+        let lift = Translation3::new(2.0, 0.0, 0.0).to_homogeneous();
+        let now = pose(
+            lift,
+            lift * Matrix4::new_translation(&Vector3::new(1.0, 0.3, 0.0)),
+        );
+        let points = [Point3::new(0.5, 0.0, 0.0), Point3::new(1.5, 1.0, -1.0)];
+        let d = motion_direction(&now, &rest, &pair(), &points).expect("a direction");
+        assert!((d + Vector3::y()).norm() < 1e-12, "{d:?}");
+    }
+
+    #[test]
+    fn a_hinge_closing_gives_the_side_it_closes_on() {
+        // The child part turns 60° about +z round the joint at the origin; where the parts
+        // meet, W1's outward direction is opposite the child's displacement there.
+        let rest = pose(Matrix4::identity(), Matrix4::identity());
+        let turn = Rotation3::from_axis_angle(&Vector3::z_axis(), 60f64.to_radians());
+        let now = pose(Matrix4::identity(), turn.to_homogeneous());
+        let points = [Point3::new(0.2, 0.1, 0.0), Point3::new(0.4, 0.1, 0.0)];
+        let d = motion_direction(&now, &rest, &pair(), &points).expect("a direction");
+        let expected: Vector3<f64> = points
+            .iter()
+            .map(|p| -(turn * p - p))
+            .sum::<Vector3<f64>>()
+            .normalize();
+        assert!((d - expected).norm() < 1e-12, "{d:?} against {expected:?}");
+    }
+
+    #[test]
+    fn no_relative_motion_has_no_direction() {
+        let rest = pose(Matrix4::identity(), Matrix4::identity());
+        let moved = Matrix4::new_translation(&Vector3::new(0.0, 5.0, 0.0));
+        let together = pose(moved, moved);
+        let points = [Point3::new(0.1, 0.2, 0.3)];
+        assert_eq!(motion_direction(&together, &rest, &pair(), &points), None);
+        assert_eq!(motion_direction(&together, &rest, &pair(), &[]), None);
+        // A twist about the points: the motions cancel.
+        let twist = Rotation3::from_axis_angle(&Vector3::x_axis(), 0.5).to_homogeneous();
+        let around = [Point3::new(1.0, 0.2, 0.0), Point3::new(1.0, -0.2, 0.0)];
+        let twisted = pose(Matrix4::identity(), twist);
+        assert_eq!(motion_direction(&twisted, &rest, &pair(), &around), None);
+        // A singular rest joint.
+        let flat = pose(Matrix4::zeros(), Matrix4::identity());
+        assert_eq!(motion_direction(&twisted, &flat, &pair(), &points), None);
+    }
 }

@@ -4,7 +4,7 @@
 //! intersects itself; a frame without any fold costs one BVH refit and one self-overlap query
 //! per pair.
 
-use super::direction::{skeleton_direction, BoneAxes};
+use super::direction::{BoneAxes, DirectionSource, Meeting};
 use super::fold::{resolve_detected, FoldError, FoldOutput, FoldParams, FoldPre, FoldTimings};
 use super::regions::{derive_pairs, RegionOptions};
 use super::SelfContactError;
@@ -19,7 +19,7 @@ struct Fold {
     body: usize,
     pre: FoldPre,
     axes: BoneAxes,
-    direction: Option<Vector3<f64>>,
+    direction: DirectionSource,
 }
 
 /// What one fold did in a frame.
@@ -42,7 +42,9 @@ pub struct SelfPassOutput {
     pub folds: Vec<FoldReport>,
     /// Summed timings.
     pub timings: FoldTimings,
-    /// Folds skipped because no direction exists (full 180° fold).
+    /// Folds that intersect themselves but were skipped for want of a direction (a full 180°
+    /// fold for the skeleton's, no common relative motion where the parts meet for the
+    /// motion's).
     pub no_direction: usize,
     /// Folds left unresolved because no bulge could keep the volume without a spike
     /// ([`crate::selfcontact::fold::FoldOutput::unbalanced`]).
@@ -55,7 +57,9 @@ pub struct SelfContactPass {
     folds: Vec<Fold>,
     params: FoldParams,
     triangles: Vec<Vec<[u32; 3]>>,
-    vertex_counts: Vec<usize>,
+    /// Welded rest positions per body, and the rest pose ([`DirectionSource::Motion`]).
+    rest: Vec<Vec<Point3<f64>>>,
+    rest_pose: Pose,
     passes: usize,
 }
 
@@ -83,16 +87,16 @@ pub enum SelfPassError {
 
 impl SelfContactPass {
     /// Derives the joint pairs of every body from the skin weights and precomputes them
-    /// (`rest`: welded rest positions per body). `directions`: user directions by pair name
-    /// (W1's outward side at the fold, e.g. vertical for the lips); other pairs use the
-    /// skeleton's.
+    /// (`rest`: welded rest positions per body, at the rig's rest pose). `directions`: where
+    /// each named pair's direction comes from (a fixed direction is W1's outward side at the
+    /// fold, e.g. vertical for the lips); other pairs use the skeleton's.
     pub fn new(
         rig: &Rig,
         welded: &[WeldedMesh],
         rest: &[Vec<Point3<f64>>],
         options: &RegionOptions,
         params: FoldParams,
-        directions: &[(String, Vector3<f64>)],
+        directions: &[(String, DirectionSource)],
     ) -> Result<Self, SelfPassError> {
         if rest.len() != welded.len() {
             return Err(SelfPassError::Mismatch(format!(
@@ -109,7 +113,7 @@ impl SelfContactPass {
             let direction = directions
                 .iter()
                 .find(|(n, _)| *n == name)
-                .and_then(|(_, d)| d.try_normalize(1e-300));
+                .map_or(DirectionSource::Skeleton, |(_, d)| *d);
             let pre = FoldPre::new(&rest[body], &welded[body].triangles, regions)
                 .map_err(|source| SelfPassError::Fold { name, source })?;
             folds.push(Fold {
@@ -124,7 +128,8 @@ impl SelfContactPass {
             folds,
             params,
             triangles,
-            vertex_counts: rest.iter().map(Vec::len).collect(),
+            rest: rest.to_vec(),
+            rest_pose: rig.pose_at(None, 0.0),
             passes: DEFAULT_FOLD_PASSES,
         })
     }
@@ -162,7 +167,8 @@ impl SelfContactPass {
                 positions.len()
             )));
         }
-        for (b, (p, &n)) in positions.iter().zip(&self.vertex_counts).enumerate() {
+        for (b, (p, rest)) in positions.iter().zip(&self.rest).enumerate() {
+            let n = rest.len();
             if p.len() != n {
                 return Err(SelfPassError::Mismatch(format!(
                     "body {b}: {} positions, the rig has {n} welded vertices",
@@ -195,13 +201,6 @@ impl SelfContactPass {
     ) -> Result<bool, SelfPassError> {
         let name = &fold.pre.regions.pair.name;
         let tris = &self.triangles[fold.body];
-        let direction = fold
-            .direction
-            .or_else(|| skeleton_direction(rig, pose, &fold.pre.regions.pair, fold.axes.leaf_axis));
-        let Some(direction) = direction else {
-            out.no_direction += 1;
-            return Ok(false);
-        };
         let pos = &positions[fold.body];
         let fail = |source| SelfPassError::Fold {
             name: name.clone(),
@@ -209,6 +208,30 @@ impl SelfContactPass {
         };
         // Detection first: a joint that does not fold into itself costs its detection only.
         let Some(detection) = fold.pre.detect(pos, tris).map_err(fail)? else {
+            return Ok(false);
+        };
+        let rest = &self.rest[fold.body];
+        let meeting_points: Vec<Point3<f64>> = match fold.direction {
+            DirectionSource::Motion => detection
+                .vertices
+                .iter()
+                .filter_map(|&v| rest.get(v as usize).copied())
+                .collect(),
+            _ => Vec::new(),
+        };
+        let meeting = Meeting {
+            rest_pose: &self.rest_pose,
+            points: &meeting_points,
+        };
+        let direction = fold.direction.direction(
+            rig,
+            pose,
+            &fold.pre.regions.pair,
+            &fold.axes,
+            Some(&meeting),
+        );
+        let Some(direction) = direction else {
+            out.no_direction += 1;
             return Ok(false);
         };
         let normals = vertex_normals(pos, tris, NormalWeighting::Area);
