@@ -191,6 +191,32 @@ impl SelfContactPass {
         Ok(out)
     }
 
+    /// `d̂_12` of `fold` at `pose` from its [`DirectionSource`]; the parts meet at the
+    /// `crossing` vertices (those of the faces crossing the other part).
+    fn direction(
+        &self,
+        fold: &Fold,
+        rig: &Rig,
+        pose: &Pose,
+        crossing: &[u32],
+    ) -> Option<Vector3<f64>> {
+        let rest = &self.rest[fold.body];
+        let points: Vec<Point3<f64>> = match fold.direction {
+            DirectionSource::Motion => crossing
+                .iter()
+                .filter_map(|&v| rest.get(v as usize).copied())
+                .collect(),
+            _ => Vec::new(),
+        };
+        let meeting = Meeting {
+            rest_pose: &self.rest_pose,
+            points: &points,
+        };
+        let pair = &fold.pre.regions.pair;
+        fold.direction
+            .direction(rig, pose, pair, &fold.axes, Some(&meeting))
+    }
+
     /// One fold in one sweep; whether it moved the body.
     fn sweep_fold(
         &self,
@@ -211,27 +237,7 @@ impl SelfContactPass {
         let Some(detection) = fold.pre.detect(pos, tris).map_err(fail)? else {
             return Ok(false);
         };
-        let rest = &self.rest[fold.body];
-        let meeting_points: Vec<Point3<f64>> = match fold.direction {
-            DirectionSource::Motion => detection
-                .vertices
-                .iter()
-                .filter_map(|&v| rest.get(v as usize).copied())
-                .collect(),
-            _ => Vec::new(),
-        };
-        let meeting = Meeting {
-            rest_pose: &self.rest_pose,
-            points: &meeting_points,
-        };
-        let direction = fold.direction.direction(
-            rig,
-            pose,
-            &fold.pre.regions.pair,
-            &fold.axes,
-            Some(&meeting),
-        );
-        let Some(direction) = direction else {
+        let Some(direction) = self.direction(fold, rig, pose, &detection.vertices) else {
             out.no_direction += 1;
             return Ok(false);
         };
