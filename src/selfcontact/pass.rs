@@ -139,7 +139,10 @@ impl SelfContactPass {
     /// the first left (vertices outside the contact zones still inside the other side, and
     /// what a neighbouring joint's fold pushed back in): at the deepest frame, 3 penetrating
     /// vertices on the bending capsule and 191 on the finger drop to 0 (86 on the capsule with
-    /// `τ = 0`). A sweep that moves nothing ends the frame.
+    /// `τ = 0`). Those are touching, not interpenetrating: all lie within 0.25 h of the
+    /// surface on the other side of the crease cut (two triangulations of one curved contact
+    /// surface cross each other by more than `MEASURING.md`'s 0.05 h nudge), so one sweep
+    /// resolves the folds at half the cost. A sweep that moves nothing ends the frame.
     pub fn with_passes(mut self, passes: usize) -> Self {
         self.passes = passes.max(1);
         self
