@@ -753,3 +753,58 @@ fn same_bytes(a: &Path, b: &Path, name: &str) -> Vec<u8> {
     assert_eq!(fa, fb, "{name} differs between 1 and 2 threads");
     fa
 }
+
+/// `info` reports the self-contact pass as `pose` would run it: the derived pair with its
+/// joints, shared region, joint size and extent, and where its direction comes from (here the
+/// configuration's `[self_contact] direction = "motion"`), in text and in JSON.
+#[test]
+fn info_reports_the_joint_pairs_and_their_direction_source() {
+    let dir = tmp("info-motion");
+    std::fs::create_dir_all(&dir).expect("dir");
+    let rig = dir.join("mouth.glb");
+    std::fs::copy(committed("mouth"), &rig).expect("copy rig");
+    std::fs::write(
+        dir.join("mouth.contact.toml"),
+        "[self_contact]\ndirection = \"motion\"\n",
+    )
+    .expect("config");
+    let run = |json: bool| {
+        let mut args = vec!["info", s(&rig)];
+        if json {
+            args.push("--json");
+        }
+        let out = Command::new(env!("CARGO_BIN_EXE_contact-skin"))
+            .args(&args)
+            .output()
+            .expect("run contact-skin");
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8(out.stdout).expect("utf-8")
+    };
+    let text = run(false);
+    assert!(
+        text.contains("pair 'lips/head-jaw'")
+            && text.contains("direction from the relative motion of the parts"),
+        "{text}"
+    );
+    let v: Value = serde_json::from_str(&run(true)).expect("json");
+    let sc = &v["self_contact"];
+    assert_eq!(sc["enabled"], true);
+    let pairs = sc["pairs"].as_array().expect("pairs");
+    assert_eq!(pairs.len(), 1);
+    let p = &pairs[0];
+    assert_eq!(p["name"], "lips/head-jaw");
+    assert_eq!(p["direction_source"], "motion");
+    assert!(p["direction"].is_null());
+    assert!(p["shared"].as_u64().expect("shared") > 0);
+    let size = p["joint_size"].as_f64().expect("joint size");
+    let extent = p["extent"].as_f64().expect("extent");
+    assert!(
+        (extent - 1.75 * size).abs() < 1e-9 * size,
+        "{extent} {size}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
