@@ -32,7 +32,8 @@ const STAGES: [&str; 10] = [
     "wall",
 ];
 
-fn pose(args: &[&str]) -> std::process::Output {
+/// `contact-skin ARGS...`, asserted to succeed.
+fn cli(args: &[&str]) -> std::process::Output {
     let out = Command::new(env!("CARGO_BIN_EXE_contact-skin"))
         .args(args)
         .output()
@@ -49,7 +50,7 @@ fn pose(args: &[&str]) -> std::process::Output {
 fn pose_frames(rig: &Path, out: &Path, frames: &str, extra: &[&str]) -> std::process::Output {
     let mut args = vec!["pose", s(rig), "--out", s(out), "--frames", frames];
     args.extend_from_slice(extra);
-    pose(&args)
+    cli(&args)
 }
 
 /// Parses the `v` lines of an OBJ.
@@ -85,7 +86,7 @@ fn obj_frames_follow_the_contract_and_do_not_depend_on_threads() {
     let (a, b) = (tmp("t1"), tmp("t2"));
     let ra = rig_path.to_str().expect("utf8");
     for (dir, threads) in [(&a, "1"), (&b, "2")] {
-        pose(&[
+        cli(&[
             "--threads",
             threads,
             "pose",
@@ -144,7 +145,7 @@ fn baked_glb_replays_the_frames() {
     use contact_skin::rig::accessor::{read, Source};
     let rig_path = samples().join("RiggedFigure/RiggedFigure.glb");
     let out = tmp("glb");
-    pose(&[
+    cli(&[
         "pose",
         rig_path.to_str().expect("utf8"),
         "--out",
@@ -302,7 +303,7 @@ fn contact_resolves_the_capsule_pair_and_does_not_depend_on_threads() {
     let rig_path = committed("capsule_pair");
     let (a, b, plain) = (tmp("c1"), tmp("c2"), tmp("c0"));
     let n = CONTACT_FRAMES.to_string();
-    let out = pose(&[
+    let out = cli(&[
         "--threads",
         "1",
         "pose",
@@ -314,7 +315,7 @@ fn contact_resolves_the_capsule_pair_and_does_not_depend_on_threads() {
         "--json",
         "--diagnostics",
     ]);
-    pose(&[
+    cli(&[
         "--threads",
         "2",
         "pose",
@@ -575,7 +576,7 @@ fn self_contact_resolves_the_bending_capsule_and_does_not_depend_on_threads() {
     let run = |args: Vec<String>, extra: &[&str]| {
         let mut all: Vec<&str> = args.iter().map(String::as_str).collect();
         all.extend_from_slice(extra);
-        pose(&all)
+        cli(&all)
     };
     let out = run(
         base(&a, "1"),
@@ -773,16 +774,7 @@ fn info_reports_the_joint_pairs_and_their_direction_source() {
         if json {
             args.push("--json");
         }
-        let out = Command::new(env!("CARGO_BIN_EXE_contact-skin"))
-            .args(&args)
-            .output()
-            .expect("run contact-skin");
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        String::from_utf8(out.stdout).expect("utf-8")
+        String::from_utf8(cli(&args).stdout).expect("utf-8")
     };
     let text = run(false);
     assert!(
