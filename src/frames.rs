@@ -107,20 +107,21 @@ impl Frame {
     /// Welded positions of every body (each welded vertex takes its representative file
     /// vertex's position).
     pub fn welded(&self, pre: &Precomputed) -> Vec<Vec<nalgebra::Point3<f64>>> {
-        self.bodies
-            .iter()
-            .zip(&pre.welded)
-            .map(|(b, w)| w.gather(&b.positions))
-            .collect()
+        self.gather(pre, |b| &b.positions)
     }
 
     /// Welded skinned normals of every body (the rest normals carried by the skinning, not
     /// recomputed from the posed positions: the reference of [`crate::report::metrics::turned_faces`]).
     pub fn welded_normals(&self, pre: &Precomputed) -> Vec<Vec<nalgebra::Vector3<f64>>> {
+        self.gather(pre, |b| &b.normals)
+    }
+
+    /// One per-vertex array of every body, gathered to its welded vertices.
+    fn gather<T: Copy>(&self, pre: &Precomputed, field: impl Fn(&Skinned) -> &[T]) -> Vec<Vec<T>> {
         self.bodies
             .iter()
             .zip(&pre.welded)
-            .map(|(b, w)| w.gather(&b.normals))
+            .map(|(b, w)| w.gather(field(b)))
             .collect()
     }
 }

@@ -260,6 +260,16 @@ fn committed(name: &str) -> PathBuf {
         .join(format!("{name}.glb"))
 }
 
+/// A fresh folder `tmp(label)` holding a copy of the committed rig `name` (so that a
+/// configuration can sit next to it); the folder and the rig's path.
+fn committed_copy(name: &str, label: &str) -> (PathBuf, PathBuf) {
+    let dir = tmp(label);
+    std::fs::create_dir_all(&dir).expect("dir");
+    let rig = dir.join(format!("{name}.glb"));
+    std::fs::copy(committed(name), &rig).expect("copy the rig");
+    (dir, rig)
+}
+
 /// The file positions of every body of an OBJ frame (split by the rig's vertex counts).
 fn obj_bodies(path: &Path, rig: &rig::Rig) -> Vec<Vec<Point3<f64>>> {
     let text = std::fs::read_to_string(path).expect("frame");
@@ -460,10 +470,7 @@ fn check_body(
 
 #[test]
 fn a_painted_map_of_zeros_removes_the_bulge_of_its_body() {
-    let dir = tmp("painted");
-    std::fs::create_dir_all(&dir).expect("dir");
-    let rig_path = dir.join("capsule_pair.glb");
-    std::fs::copy(committed("capsule_pair"), &rig_path).expect("copy");
+    let (dir, rig_path) = committed_copy("capsule_pair", "painted");
     let l = scenes::load("capsule_pair", 7);
     let lower = l
         .rig
@@ -694,10 +701,7 @@ fn self_contact_resolves_the_bending_capsule_and_does_not_depend_on_threads() {
 
 #[test]
 fn self_contact_follows_its_configuration() {
-    let dir = tmp("selfcfg");
-    std::fs::create_dir_all(&dir).expect("dir");
-    let rig_path = dir.join("bending_capsule.glb");
-    std::fs::copy(committed("bending_capsule"), &rig_path).expect("copy");
+    let (dir, rig_path) = committed_copy("bending_capsule", "selfcfg");
     let l = scenes::load("bending_capsule", 5);
     // Disabled in the file: the same as --no-self-contact.
     let config = dir.join("bending_capsule.contact.toml");
@@ -760,10 +764,7 @@ fn same_bytes(a: &Path, b: &Path, name: &str) -> Vec<u8> {
 /// configuration's `[self_contact] direction = "motion"`), in text and in JSON.
 #[test]
 fn info_reports_the_joint_pairs_and_their_direction_source() {
-    let dir = tmp("info-motion");
-    std::fs::create_dir_all(&dir).expect("dir");
-    let rig = dir.join("mouth.glb");
-    std::fs::copy(committed("mouth"), &rig).expect("copy rig");
+    let (dir, rig) = committed_copy("mouth", "info-motion");
     std::fs::write(
         dir.join("mouth.contact.toml"),
         "[self_contact]\ndirection = \"motion\"\n",
