@@ -79,7 +79,7 @@ pub struct ContactSide {
     /// `k̄_l`.
     pub stiffness: f64,
     /// Samples on `S` of the vertices of `M_l` (indexed by mesh vertex).
-    pub samples: Vec<Option<SurfaceSample>>,
+    pub samples: zones::VertexSamples,
     /// `C_l` and its exact boundary.
     pub zone: Zone,
     /// Counters of the mapping step.
@@ -278,27 +278,29 @@ fn resolve(
             reach,
         })
         .collect();
-    let samples: Vec<zones::SideSamples> = inputs.iter().map(|i| i.samples()).collect();
+    let samples: [zones::SideSamples; 2] = [0, 1].map(|k| inputs[k].samples());
     let moments = [
         zones::depth_moments(a.mesh.triangles(), &samples[0]),
         zones::depth_moments(b.mesh.triangles(), &samples[1]),
     ];
     let (threshold, mean_depth, depth_deviation) = zones::threshold(moments, params.tau);
-    let zone_of = |k: usize| zones::zone(&inputs[k], &samples[k], threshold);
-    let side = |k: usize| ContactSide {
+    let zones = [0, 1].map(|k| zones::zone(&inputs[k], &samples[k], threshold));
+    // The samples (mesh-sized arrays) move into the sides.
+    let side = |k: usize, own: zones::SideSamples, zone: Zone| ContactSide {
         direction: -frames[k].cast,
         cast: frames[k].cast,
         stiffness: frames[k].stiffness,
-        samples: samples[k].vertices.clone(),
-        zone: zone_of(k),
+        samples: own.vertices,
+        zone,
         mapping: mapped[k].stats,
-        bisected_boundaries: samples[k].bisected,
+        bisected_boundaries: own.bisected,
         crossings: hits[k]
             .iter()
             .flat_map(|(e, list)| list.iter().map(move |(t, _)| (*e, *t)))
             .collect(),
     };
-    let sides = [side(0), side(1)];
+    let ([s0, s1], [z0, z1]) = (samples, zones);
+    let sides = [side(0, s0, z0), side(1, s1, z1)];
     let t_zone = start.elapsed().as_secs_f64();
     Ok(Some(Contact {
         sides,

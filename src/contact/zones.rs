@@ -84,6 +84,59 @@ fn sign(x: f64) -> f64 {
     }
 }
 
+/// Samples indexed by mesh vertex, stored only for the vertices that have one (a mapping
+/// region is a small part of its mesh: a mesh-sized array of samples cost page faults per fold).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct VertexSamples {
+    /// Per mesh vertex, the index of its sample in `values` (`u32::MAX`: none).
+    slot: Vec<u32>,
+    values: Vec<SurfaceSample>,
+}
+
+impl VertexSamples {
+    /// No sample on a mesh of `vertex_count` vertices.
+    pub fn new(vertex_count: usize) -> Self {
+        Self {
+            slot: vec![u32::MAX; vertex_count],
+            values: Vec::new(),
+        }
+    }
+
+    /// Number of mesh vertices (not of samples).
+    pub fn len(&self) -> usize {
+        self.slot.len()
+    }
+
+    /// Whether the mesh has no vertex.
+    pub fn is_empty(&self) -> bool {
+        self.slot.is_empty()
+    }
+
+    /// The sample of mesh vertex `v`, if it has one (`None` also out of range).
+    pub fn get(&self, v: usize) -> Option<SurfaceSample> {
+        let k = *self.slot.get(v)?;
+        self.values.get(k as usize).copied()
+    }
+
+    /// Whether mesh vertex `v` has a sample.
+    pub fn contains(&self, v: usize) -> bool {
+        self.slot.get(v).is_some_and(|&k| k != u32::MAX)
+    }
+
+    /// Sets the sample of mesh vertex `v` (ignored out of range).
+    pub fn insert(&mut self, v: usize, sample: SurfaceSample) {
+        let Some(k) = self.slot.get_mut(v) else {
+            return;
+        };
+        if *k == u32::MAX {
+            *k = self.values.len() as u32;
+            self.values.push(sample);
+        } else {
+            self.values[*k as usize] = sample;
+        }
+    }
+}
+
 /// Ray casts of the bisection that places a boundary point of `M_l` on an edge with neither an
 /// intersection point nor a quad crossing: the point is found to `2^-16` of the edge (1.5e-5
 /// edge lengths). Each step casts one ray; these rays outnumbered the mapping's own by 12 to 1
@@ -95,7 +148,7 @@ pub const BISECTION_STEPS: usize = 16;
 #[derive(Clone, Debug, Default)]
 pub struct SideSamples {
     /// Per mesh vertex, the sample of a vertex of `M_l`.
-    pub vertices: Vec<Option<SurfaceSample>>,
+    pub vertices: VertexSamples,
     /// Per directed edge `(inside, outside)` of `M_l`: parameter from the inside vertex of the
     /// boundary point of `M_l`, and its sample.
     pub boundary: HashMap<(u32, u32), (f64, SurfaceSample)>,
@@ -130,7 +183,7 @@ impl SideInput<'_, '_, '_> {
         let positions = self.own.mesh.positions();
         let index = self.own.mesh.index();
         let mut out = SideSamples {
-            vertices: vec![None; positions.len()],
+            vertices: VertexSamples::new(positions.len()),
             ..Default::default()
         };
         for &v in &self.region.members {
@@ -138,14 +191,14 @@ impl SideInput<'_, '_, '_> {
                 let s = self
                     .frame
                     .sample(positions[v as usize], self.own.normals[v as usize], m);
-                out.vertices[v as usize] = Some(s);
+                out.vertices.insert(v as usize, s);
             }
         }
         for &v in &self.region.members {
             for &e in index.vertex_edges(v) {
                 let [a, b] = index.edges()[e as usize];
                 let w = if a == v { b } else { a };
-                if out.vertices[w as usize].is_some() {
+                if out.vertices.contains(w as usize) {
                     continue;
                 }
                 let (t, s, bisected) = self.boundary_sample(v, w);
@@ -238,13 +291,16 @@ impl SideInput<'_, '_, '_> {
 pub fn depth_moments(triangles: &[[u32; 3]], samples: &SideSamples) -> [f64; 3] {
     let mut m = [0.0; 3];
     for t in triangles {
-        if !t.iter().any(|&v| samples.vertices[v as usize].is_some()) {
+        if !t.iter().any(|&v| samples.vertices.contains(v as usize)) {
             continue;
         }
-        let mut poly: Vec<&SurfaceSample> = Vec::with_capacity(4);
+        let mut poly: Vec<SurfaceSample> = Vec::with_capacity(4);
         for k in 0..3 {
             let (a, b) = (t[k], t[(k + 1) % 3]);
-            let (sa, sb) = (&samples.vertices[a as usize], &samples.vertices[b as usize]);
+            let (sa, sb) = (
+                samples.vertices.get(a as usize),
+                samples.vertices.get(b as usize),
+            );
             if let Some(s) = sa {
                 poly.push(s);
             }
@@ -254,7 +310,7 @@ pub fn depth_moments(triangles: &[[u32; 3]], samples: &SideSamples) -> [f64; 3] 
                 _ => None,
             };
             if let Some((_, s)) = crossing {
-                poly.push(s);
+                poly.push(*s);
             }
         }
         for k in 1..poly.len().saturating_sub(1) {
@@ -321,15 +377,13 @@ fn in_zone(s: &SurfaceSample, eps: f64) -> bool {
 pub fn zone(input: &SideInput, samples: &SideSamples, eps: f64) -> Zone {
     let index = input.own.mesh.index();
     let n = samples.vertices.len();
-    let inside: Vec<bool> = samples
-        .vertices
-        .iter()
-        .map(|s| s.as_ref().is_some_and(|s| in_zone(s, eps)))
+    let inside: Vec<bool> = (0..n)
+        .map(|v| samples.vertices.get(v).is_some_and(|s| in_zone(&s, eps)))
         .collect();
     let vertices: Vec<u32> = (0..n as u32).filter(|&v| inside[v as usize]).collect();
     let mut boundary = Vec::new();
     for &i in &vertices {
-        let Some(si) = samples.vertices[i as usize] else {
+        let Some(si) = samples.vertices.get(i as usize) else {
             continue;
         };
         for &e in index.vertex_edges(i) {
@@ -338,7 +392,10 @@ pub fn zone(input: &SideInput, samples: &SideSamples, eps: f64) -> Zone {
             if inside[j as usize] {
                 continue;
             }
-            let (t_end, sj) = match (samples.vertices[j as usize], samples.boundary.get(&(i, j))) {
+            let (t_end, sj) = match (
+                samples.vertices.get(j as usize),
+                samples.boundary.get(&(i, j)),
+            ) {
                 (Some(s), _) => (1.0, s),
                 (None, Some(&(t, s))) => (t, s),
                 (None, None) => continue,
@@ -589,5 +646,40 @@ mod tests {
             .to_degrees();
         eprintln!("printed Appendix A normal off by {off:.1}°");
         assert!(off > 5.0, "printed formula off by {off}°");
+    }
+
+    /// The sparse per-vertex store answers like the mesh-sized `Vec<Option<_>>` it replaced.
+    #[test]
+    fn vertex_samples_behave_like_a_mesh_sized_array() {
+        let frame = SurfaceFrame {
+            cast: -Vector3::z(),
+            stiffness: 0.5,
+        };
+        let at = |z: f64| {
+            frame.sample(
+                Point3::new(0.0, 0.0, z),
+                Vector3::z(),
+                Mapping {
+                    target: Point3::new(0.0, 0.0, 2.0),
+                    target_normal: -Vector3::z(),
+                },
+            )
+        };
+        let mut store = VertexSamples::new(5);
+        let mut dense: Vec<Option<SurfaceSample>> = vec![None; 5];
+        for (v, z) in [(3, 0.0), (1, 0.5), (3, 1.0), (7, 0.2)] {
+            store.insert(v, at(z));
+            if let Some(slot) = dense.get_mut(v) {
+                *slot = Some(at(z));
+            }
+        }
+        assert_eq!(store.len(), 5);
+        for v in 0..8 {
+            assert_eq!(store.get(v), dense.get(v).copied().flatten(), "vertex {v}");
+            assert_eq!(store.contains(v), dense.get(v).is_some_and(|s| s.is_some()));
+        }
+        // The second insert at vertex 3 replaced the first.
+        assert_ne!(at(0.0), at(1.0));
+        assert_eq!(store.get(3), Some(at(1.0)));
     }
 }

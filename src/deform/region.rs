@@ -472,7 +472,7 @@ fn filled_point(wr: &WorkingRegion, contacts: &[&ContactSide], li: u32, lj: u32)
         .enumerate()
         .find_map(|(k, c)| {
             c.zone.inside[v]
-                .then(|| c.samples[v].map(|s| (k, s)))
+                .then(|| c.samples.get(v).map(|s| (k, s)))
                 .flatten()
         })
         .unwrap_or((
@@ -733,7 +733,7 @@ fn zone_sample(contacts: &[&ContactSide], v: usize) -> Option<SurfaceSample> {
     contacts
         .iter()
         .filter(|c| c.zone.inside[v])
-        .filter_map(|c| c.samples[v])
+        .filter_map(|c| c.samples.get(v))
         .max_by(|x, y| x.depth.total_cmp(&y.depth))
 }
 
@@ -781,7 +781,7 @@ fn bulge_map(
     let mut samples = Vec::new();
     for c in frame.contacts {
         for &v in &c.zone.vertices {
-            let (Some(s), l) = (c.samples[v as usize], wr.local_of[v as usize]) else {
+            let (Some(s), l) = (c.samples.get(v as usize), wr.local_of[v as usize]) else {
                 continue;
             };
             if l == u32::MAX {

@@ -763,7 +763,7 @@ fn mean_edge_length(region: &crate::mesh::Region, positions: &[Point3<f64>]) -> 
 /// the mapping axis, where a vertex on `S` (depth 0) is sent along it by a whole edge length
 /// (measured on the bending capsule with CoR input): such a sample is left to the profile.
 fn conditioned(side: &ContactSide, v: usize, length: f64) -> bool {
-    side.samples[v].is_some_and(|s| {
+    side.samples.get(v).is_some_and(|s| {
         let moved = (s.surface_point - s.point).norm();
         moved <= 0.05 * length || s.depth * (1.0 - side.stiffness) >= 0.5 * moved
     })
