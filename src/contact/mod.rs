@@ -285,7 +285,7 @@ fn resolve(
     ];
     let (threshold, mean_depth, depth_deviation) = zones::threshold(moments, params.tau);
     let zones = [0, 1].map(|k| zones::zone(&inputs[k], &samples[k], threshold));
-    // The samples (mesh-sized arrays) move into the sides.
+    // The samples move into the sides (no copy).
     let side = |k: usize, own: zones::SideSamples, zone: Zone| ContactSide {
         direction: -frames[k].cast,
         cast: frames[k].cast,
