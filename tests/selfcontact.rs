@@ -402,6 +402,38 @@ impl CapsuleFold {
     }
 }
 
+/// A fold's time in Table 1's columns (`FoldOutput::stages`) is a partition of its steps' time:
+/// on one thread the columns are sub-intervals of the steps, none negative, their sum at most
+/// the fold's whole time, the factorizations inside p., di. and g.
+#[test]
+fn table1_columns_partition_the_fold_time() {
+    let fold = CapsuleFold::new();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .expect("pool");
+    let frame = pool.install(|| fold.at(30, &FoldParams::default()));
+    let out = frame.out.expect("the capsule folds at 150°");
+    let s = out.stages;
+    let columns = [
+        s.intersection,
+        s.mapping,
+        s.zones,
+        s.parametrization,
+        s.directions,
+        s.fields,
+        s.deformation,
+    ];
+    assert!(columns.iter().all(|&c| c >= 0.0), "{s:?}");
+    assert!(s.parametrization > 0.0 && s.intersection > 0.0, "{s:?}");
+    assert_eq!(s.wall, out.timings.total());
+    assert!(columns.iter().sum::<f64>() <= s.wall, "{s:?}");
+    assert!(
+        s.factorization > 0.0 && s.factorization <= s.parametrization + s.directions + s.fields,
+        "{s:?}"
+    );
+}
+
 /// PIPELINE.md's check of the crease cut: it follows the fold, i.e. every vertex of a cut edge
 /// of the shared region lies within one ring of the silhouette of `R` seen from `d̂`
 /// (vertices where `n·d̂` changes sign along an edge). Measured on the bending capsule.

@@ -21,6 +21,7 @@ use crate::deform::volume::RootKind;
 use crate::deform::{DeformParams, DeformStats, RegionFrame, WorkingRegion};
 use crate::heat::{Boundary, EdgePoint};
 use crate::intersect::{Intersections, MeshIndex};
+use crate::pass::StageTimings;
 use nalgebra::{Point3, Vector3};
 use std::time::Instant;
 
@@ -226,6 +227,8 @@ pub struct FoldOutput {
     pub region_positions: [Vec<Point3<f64>>; 2],
     /// Timings.
     pub timings: FoldTimings,
+    /// The same time in the columns of the paper's Table 1 ([`table1_stages`]).
+    pub stages: StageTimings,
 }
 
 impl FoldPre {
@@ -469,6 +472,7 @@ pub fn resolve_detected(
             .map(|(p, q)| p + q * gamma_h)
             .collect()
     };
+    let stages = table1_stages(&timings, &contact.timings, [&s1.timings, &s2.timings]);
     Ok(Some(FoldOutput {
         region_positions: [own(&s1), own(&s2)],
         positions: blended.positions,
@@ -480,8 +484,35 @@ pub fn resolve_detected(
         root: blended.root,
         bulge_steepness: blended.steepness,
         unbalanced: blended.unbalanced,
+        stages,
         timings,
     }))
+}
+
+/// A fold's time in the columns of the paper's Table 1, whose skinned finger row counts the
+/// self-contact steps too: i. is the detection, the crease cut and the intersection of the
+/// truncated parts; m. and c. the contact's mapping and zones; di. the zones' extension to the
+/// crease, `σ` and both regions' direction fields; p., g. and s. both regions' parametrization,
+/// diffusions and numeric factorizations; de. both regions' profiles and bulge map, the blend
+/// and the volume solve. `wall` is the fold's whole time ([`FoldTimings::total`]).
+fn table1_stages(
+    fold: &FoldTimings,
+    contact: &crate::contact::ContactTimings,
+    regions: [&crate::deform::DeformTimings; 2],
+) -> StageTimings {
+    let sum = |f: fn(&crate::deform::DeformTimings) -> f64| regions.iter().map(|r| f(r)).sum();
+    StageTimings {
+        setup: 0.0,
+        intersection: fold.detection + fold.crease + contact.intersection,
+        mapping: contact.mapping,
+        zones: contact.zones,
+        parametrization: sum(|r| r.parametrization),
+        directions: fold.directions + sum(|r| r.directions),
+        fields: sum(|r| r.fields),
+        deformation: sum(|r| r.deformation) + fold.volume,
+        factorization: sum(|r| r.factorization),
+        wall: fold.total(),
+    }
 }
 
 /// The vertices that get the crease's intersection terms: those of the crossing faces
