@@ -247,7 +247,7 @@ pub struct PassOutput {
     pub later_contacts: usize,
 }
 
-fn add_timings(a: &StageTimings, b: &StageTimings) -> StageTimings {
+pub(crate) fn add_timings(a: &StageTimings, b: &StageTimings) -> StageTimings {
     StageTimings {
         setup: a.setup + b.setup,
         intersection: a.intersection + b.intersection,

@@ -402,7 +402,7 @@ impl CapsuleFold {
     }
 }
 
-/// A fold's time in Table 1's columns (`FoldOutput::stages`) is a partition of its steps' time:
+/// A fold's time in Table 1's columns (`FoldTimings::stages`) is a partition of its steps' time:
 /// on one thread the columns are sub-intervals of the steps, none negative, their sum at most
 /// the fold's whole time, the factorizations inside p., di. and g.
 #[test]
@@ -414,7 +414,7 @@ fn table1_columns_partition_the_fold_time() {
         .expect("pool");
     let frame = pool.install(|| fold.at(30, &FoldParams::default()));
     let out = frame.out.expect("the capsule folds at 150°");
-    let s = out.stages;
+    let s = out.timings.stages;
     let columns = [
         s.intersection,
         s.mapping,

@@ -419,6 +419,18 @@ fn print_summary(s: &Summary, a: &Args) -> CliResult {
             t.steps.volume,
             t.wall
         );
+        let q = &t.steps.stages;
+        println!(
+            "self-contact in Table 1's columns (ms): i. {:.3}, m. {:.3}, c. {:.3}, p. {:.3}, di. {:.3}, g. {:.3}, de. {:.3}, s. {:.3}",
+            q.intersection,
+            q.mapping,
+            q.zones,
+            q.parametrization,
+            q.directions,
+            q.fields,
+            q.deformation,
+            q.factorization
+        );
         if s.folds_without_direction > 0 {
             println!(
                 "self-contact: {} fold(s) skipped without a direction (bones folded 180°)",

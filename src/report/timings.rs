@@ -46,6 +46,7 @@ pub fn median_folds(frames: &[(FoldTimings, f64)]) -> FoldMs {
             directions: m(|t| t.0.directions),
             deformation: m(|t| t.0.deformation),
             volume: m(|t| t.0.volume),
+            stages: median_stages(&frames.iter().map(|t| t.0.stages).collect::<Vec<_>>()),
         },
         wall: m(|t| t.1),
     }
@@ -85,6 +86,10 @@ mod tests {
             directions: 0.0,
             deformation: 3.0 * s,
             volume: 0.0,
+            stages: StageTimings {
+                parametrization: 4.0 * s,
+                ..StageTimings::default()
+            },
         };
         let m = median_folds(&[
             (step(0.001), 0.01),
@@ -94,6 +99,7 @@ mod tests {
         assert!((m.steps.detection - 2.0).abs() < 1e-12);
         assert!((m.steps.crease - 4.0).abs() < 1e-12);
         assert!((m.steps.deformation - 6.0).abs() < 1e-12);
+        assert!((m.steps.stages.parametrization - 8.0).abs() < 1e-12);
         assert!((m.wall - 20.0).abs() < 1e-12);
     }
 }

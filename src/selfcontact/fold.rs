@@ -181,6 +181,9 @@ pub struct FoldTimings {
     pub deformation: f64,
     /// Blend and volume.
     pub volume: f64,
+    /// The same time in the columns of the paper's Table 1 (see [`table1_stages`]; the
+    /// regions' factorizations in `factorization`).
+    pub stages: StageTimings,
 }
 
 impl FoldTimings {
@@ -227,8 +230,6 @@ pub struct FoldOutput {
     pub region_positions: [Vec<Point3<f64>>; 2],
     /// Timings.
     pub timings: FoldTimings,
-    /// The same time in the columns of the paper's Table 1 ([`table1_stages`]).
-    pub stages: StageTimings,
 }
 
 impl FoldPre {
@@ -472,7 +473,7 @@ pub fn resolve_detected(
             .map(|(p, q)| p + q * gamma_h)
             .collect()
     };
-    let stages = table1_stages(&timings, &contact.timings, [&s1.timings, &s2.timings]);
+    timings.stages = table1_stages(&timings, &contact.timings, [&s1.timings, &s2.timings]);
     Ok(Some(FoldOutput {
         region_positions: [own(&s1), own(&s2)],
         positions: blended.positions,
@@ -484,7 +485,6 @@ pub fn resolve_detected(
         root: blended.root,
         bulge_steepness: blended.steepness,
         unbalanced: blended.unbalanced,
-        stages,
         timings,
     }))
 }

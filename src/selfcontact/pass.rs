@@ -278,4 +278,5 @@ fn add(a: &mut FoldTimings, b: &FoldTimings) {
     a.directions += b.directions;
     a.deformation += b.deformation;
     a.volume += b.volume;
+    a.stages = crate::pass::add_timings(&a.stages, &b.stages);
 }
