@@ -181,8 +181,11 @@ pub struct FoldTimings {
     pub deformation: f64,
     /// Blend and volume.
     pub volume: f64,
-    /// The same time in the columns of the paper's Table 1 (see [`table1_stages`]; the
-    /// regions' factorizations in `factorization`).
+    /// The same time in the columns of the paper's Table 1: i. the detection, the crease cut
+    /// and the truncated parts' intersection; m. and c. the contact's mapping and zones; di.
+    /// the zones' extension to the crease, `σ` and both regions' direction fields; p., g. and
+    /// s. both regions' parametrization, diffusions and numeric factorizations; de. both
+    /// regions' profiles and bulge map, the blend and the volume solve.
     pub stages: StageTimings,
 }
 
