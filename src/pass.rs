@@ -247,18 +247,19 @@ pub struct PassOutput {
     pub later_contacts: usize,
 }
 
-pub(crate) fn add_timings(a: &StageTimings, b: &StageTimings) -> StageTimings {
-    StageTimings {
-        setup: a.setup + b.setup,
-        intersection: a.intersection + b.intersection,
-        mapping: a.mapping + b.mapping,
-        zones: a.zones + b.zones,
-        parametrization: a.parametrization + b.parametrization,
-        directions: a.directions + b.directions,
-        fields: a.fields + b.fields,
-        deformation: a.deformation + b.deformation,
-        factorization: a.factorization + b.factorization,
-        wall: a.wall + b.wall,
+impl std::ops::AddAssign for StageTimings {
+    /// Times of several passes or folds, summed stage by stage.
+    fn add_assign(&mut self, b: Self) {
+        self.setup += b.setup;
+        self.intersection += b.intersection;
+        self.mapping += b.mapping;
+        self.zones += b.zones;
+        self.parametrization += b.parametrization;
+        self.directions += b.directions;
+        self.fields += b.fields;
+        self.deformation += b.deformation;
+        self.factorization += b.factorization;
+        self.wall += b.wall;
     }
 }
 
@@ -384,7 +385,7 @@ impl ContactPass {
             if next.contacts.is_empty() {
                 break;
             }
-            out.timings = add_timings(&out.timings, &next.timings);
+            out.timings += next.timings;
             out.positions = next.positions;
             out.later_contacts += next.contacts.len();
         }

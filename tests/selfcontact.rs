@@ -377,22 +377,29 @@ impl CapsuleFold {
     }
 
     fn at(&self, f: usize, params: &FoldParams) -> FoldFrame {
-        use contact_skin::selfcontact::{fold::resolve_fold, skeleton_direction};
+        use contact_skin::selfcontact::{fold::resolve_detected, skeleton_direction};
         let l = &self.l;
         let input = l.frame(f).swap_remove(0);
         let pose = l.rig.pose_at(Some(0), l.times[f]);
         let direction =
             skeleton_direction(&l.rig, &pose, &self.pair, self.axes.leaf_axis).expect("direction");
         let normals = vertex_normals(&input, &l.triangles[0], NormalWeighting::Area);
-        let out = resolve_fold(
-            &self.pre,
-            &input,
-            &normals,
-            &l.triangles[0],
-            direction,
-            params,
-        )
-        .expect("fold runs");
+        let detection = self
+            .pre
+            .detect(&input, &l.triangles[0])
+            .expect("detection runs");
+        let out = detection.and_then(|d| {
+            resolve_detected(
+                &self.pre,
+                &d,
+                &input,
+                &normals,
+                &l.triangles[0],
+                direction,
+                params,
+            )
+            .expect("fold runs")
+        });
         FoldFrame {
             input,
             normals,

@@ -18,7 +18,6 @@ use contact_skin::pass::StageTimings;
 use contact_skin::report::metrics;
 use contact_skin::rig::{self, Rig};
 use contact_skin::scenes::{self, Scene};
-use contact_skin::selfcontact::DirectionSource;
 use contact_skin::skinning::Method;
 use indicatif::{ProgressBar, ProgressStyle};
 use nalgebra::Point3;
@@ -276,7 +275,6 @@ fn run_contact(
     Ok(row)
 }
 
-/// Frames in contact, penetration at the deepest input frame, volume error and timings.
 /// A penetration measure of all bodies: positions, triangles, `h`.
 type PenetrationOf = fn(&[Vec<Point3<f64>>], &[&[[u32; 3]]], f64) -> PenetrationRow;
 
@@ -327,6 +325,7 @@ impl<'a> Measured<'a> {
     }
 }
 
+/// Frames in contact, penetration at the deepest input frame, volume error and timings.
 fn measure(rig: &Rig, pre: &Precomputed, timed: &[(ContactFrame, f64)]) -> ContactResult {
     let Measured {
         tris,
@@ -482,10 +481,7 @@ fn run_self_contact(
         directions: settings.map_or(BTreeMap::new(), |s| {
             s.directions
                 .iter()
-                .filter_map(|(n, d)| match d {
-                    DirectionSource::Fixed(d) => Some((n.clone(), [d.x, d.y, d.z])),
-                    _ => None,
-                })
+                .filter_map(|(n, d)| Some((n.clone(), d.fixed()?)))
                 .collect()
         }),
         fold_frames: timed.iter().filter(|(f, _)| f.fold_count() > 0).count(),

@@ -263,10 +263,7 @@ fn describe_self_contact(
                 child: node(p.child_joint),
                 shared: r.shared.len(),
                 reason: r.reason.clone(),
-                direction: source.and_then(|d| match d {
-                    DirectionSource::Fixed(d) => Some([d.x, d.y, d.z]),
-                    _ => None,
-                }),
+                direction: source.and_then(|d| d.fixed()),
                 direction_source: source.unwrap_or(DirectionSource::Skeleton).label(),
             }
         })

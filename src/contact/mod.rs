@@ -204,14 +204,7 @@ fn resolve(
             let inside = match given {
                 Some(t) => t,
                 None => {
-                    built = InsideTwice::new(
-                        std::borrow::Cow::Owned(crate::report::metrics::WindingNumber::new(
-                            a.mesh.positions(),
-                            a.mesh.triangles(),
-                        )),
-                        a.mesh.positions(),
-                        a.mesh.triangles(),
-                    );
+                    built = InsideTwice::build(a.mesh.positions(), a.mesh.triangles());
                     &built
                 }
             };
@@ -422,6 +415,12 @@ impl<'w> InsideTwice<'w> {
                 .map(|_| std::sync::atomic::AtomicU8::new(0))
                 .collect(),
         }
+    }
+
+    /// The test with its own tree of the body at `positions`.
+    pub fn build(positions: &[Point3<f64>], triangles: &[[u32; 3]]) -> InsideTwice<'static> {
+        let tree = crate::report::metrics::WindingNumber::new(positions, triangles);
+        InsideTwice::new(std::borrow::Cow::Owned(tree), positions, triangles)
     }
 
     /// Whether vertex `v` (at `p`, unit normal `n`) lies inside the body twice over.

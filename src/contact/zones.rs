@@ -113,9 +113,9 @@ impl VertexSamples {
     }
 
     /// The sample of mesh vertex `v`, if it has one (`None` also out of range).
-    pub fn get(&self, v: usize) -> Option<SurfaceSample> {
+    pub fn get(&self, v: usize) -> Option<&SurfaceSample> {
         let k = *self.slot.get(v)?;
-        self.values.get(k as usize).copied()
+        self.values.get(k as usize)
     }
 
     /// Whether mesh vertex `v` has a sample.
@@ -294,7 +294,7 @@ pub fn depth_moments(triangles: &[[u32; 3]], samples: &SideSamples) -> [f64; 3] 
         if !t.iter().any(|&v| samples.vertices.contains(v as usize)) {
             continue;
         }
-        let mut poly: Vec<SurfaceSample> = Vec::with_capacity(4);
+        let mut poly: Vec<&SurfaceSample> = Vec::with_capacity(4);
         for k in 0..3 {
             let (a, b) = (t[k], t[(k + 1) % 3]);
             let (sa, sb) = (
@@ -310,7 +310,7 @@ pub fn depth_moments(triangles: &[[u32; 3]], samples: &SideSamples) -> [f64; 3] 
                 _ => None,
             };
             if let Some((_, s)) = crossing {
-                poly.push(*s);
+                poly.push(s);
             }
         }
         for k in 1..poly.len().saturating_sub(1) {
@@ -378,7 +378,7 @@ pub fn zone(input: &SideInput, samples: &SideSamples, eps: f64) -> Zone {
     let index = input.own.mesh.index();
     let n = samples.vertices.len();
     let inside: Vec<bool> = (0..n)
-        .map(|v| samples.vertices.get(v).is_some_and(|s| in_zone(&s, eps)))
+        .map(|v| samples.vertices.get(v).is_some_and(|s| in_zone(s, eps)))
         .collect();
     let vertices: Vec<u32> = (0..n as u32).filter(|&v| inside[v as usize]).collect();
     let mut boundary = Vec::new();
@@ -397,11 +397,11 @@ pub fn zone(input: &SideInput, samples: &SideSamples, eps: f64) -> Zone {
                 samples.boundary.get(&(i, j)),
             ) {
                 (Some(s), _) => (1.0, s),
-                (None, Some(&(t, s))) => (t, s),
+                (None, Some((t, s))) => (*t, s),
                 (None, None) => continue,
             };
-            let lambda = first_exit(&si, &sj, eps);
-            boundary.push(project(input, i, j, lambda * t_end, lambda, &si, &sj));
+            let lambda = first_exit(si, sj, eps);
+            boundary.push(project(input, i, j, lambda * t_end, lambda, si, sj));
         }
     }
     Zone {
@@ -675,11 +675,15 @@ mod tests {
         }
         assert_eq!(store.len(), 5);
         for v in 0..8 {
-            assert_eq!(store.get(v), dense.get(v).copied().flatten(), "vertex {v}");
+            assert_eq!(
+                store.get(v),
+                dense.get(v).and_then(Option::as_ref),
+                "vertex {v}"
+            );
             assert_eq!(store.contains(v), dense.get(v).is_some_and(|s| s.is_some()));
         }
         // The second insert at vertex 3 replaced the first.
         assert_ne!(at(0.0), at(1.0));
-        assert_eq!(store.get(3), Some(at(1.0)));
+        assert_eq!(store.get(3), Some(&at(1.0)));
     }
 }

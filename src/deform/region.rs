@@ -472,7 +472,7 @@ fn filled_point(wr: &WorkingRegion, contacts: &[&ContactSide], li: u32, lj: u32)
         .enumerate()
         .find_map(|(k, c)| {
             c.zone.inside[v]
-                .then(|| c.samples.get(v).map(|s| (k, s)))
+                .then(|| c.samples.get(v).map(|s| (k, *s)))
                 .flatten()
         })
         .unwrap_or((
@@ -735,6 +735,7 @@ fn zone_sample(contacts: &[&ContactSide], v: usize) -> Option<SurfaceSample> {
         .filter(|c| c.zone.inside[v])
         .filter_map(|c| c.samples.get(v))
         .max_by(|x, y| x.depth.total_cmp(&y.depth))
+        .copied()
 }
 
 /// `A_j`: a third of the area of the faces around each zone vertex (local indices; 0 for

@@ -498,11 +498,7 @@ pub fn band_faces(
     for &v in &boundary.vertices {
         seed(v, 0.0, &mut dist, &mut heap);
     }
-    let mut adjacency: Vec<Vec<u32>> = vec![Vec::new(); n];
-    for e in &region.edges {
-        adjacency[e[0] as usize].push(e[1]);
-        adjacency[e[1] as usize].push(e[0]);
-    }
+    let adjacency = region.adjacency();
     while let Some(Queued(d, v)) = heap.pop() {
         if d > dist[v as usize] || d > radius {
             continue;

@@ -125,7 +125,7 @@ pub struct TriangleBvh {
     /// Box of each leaf slot's face (current positions; [`Aabb::EMPTY`] for a masked slot).
     face_boxes: Vec<Aabb>,
     /// Per leaf slot: the face belongs to the tree (`None`: every slot does). See
-    /// [`TriangleBvh::restricted`].
+    /// [`TriangleBvh::restricted_at`].
     live: Option<Vec<bool>>,
 }
 
@@ -151,12 +151,18 @@ impl TriangleBvh {
         }
     }
 
-    /// The tree over a subset of its faces, without a rebuild: the structure is kept and the
-    /// other faces get empty boxes (which no query reaches), so after [`TriangleBvh::refit`]
-    /// every query gives what a tree built over the subset gives. `None` when a face of
-    /// `faces` (sorted ids) is not in the tree. Used for the truncated parts of a self-contact,
-    /// whose faces move with the crease every frame while their union does not.
-    pub fn restricted(&self, faces: &[u32]) -> Option<Self> {
+    /// The tree over a subset of its faces at `positions`, without a rebuild: the structure
+    /// is kept and the other faces get empty boxes (which no query reaches), so every query
+    /// gives what a tree built over the subset gives (and still after a
+    /// [`TriangleBvh::refit`]). `None` when a face of `faces` (sorted ids) is not in the tree.
+    /// Used for the truncated parts of a self-contact, whose faces move with the crease every
+    /// frame while their union does not.
+    pub fn restricted_at(
+        &self,
+        faces: &[u32],
+        positions: &[Point3<f64>],
+        triangles: &[[u32; 3]],
+    ) -> Option<Self> {
         let live: Vec<bool> = self
             .faces
             .iter()
@@ -166,13 +172,8 @@ impl TriangleBvh {
             return None;
         }
         let mut out = self.clone();
-        for (b, &l) in out.face_boxes.iter_mut().zip(&live) {
-            if !l {
-                *b = Aabb::EMPTY;
-            }
-        }
         out.live = Some(live);
-        out.refit_nodes();
+        out.refit(positions, triangles);
         Some(out)
     }
 
@@ -624,7 +625,7 @@ mod tests {
         let half: Vec<u32> = all.iter().copied().filter(|f| (f / 7) % 2 == 0).collect();
         let tb = TriangleBvh::build(&b.0, &b.1, &(0..b.1.len() as u32).collect::<Vec<_>>());
         let mut restricted = TriangleBvh::build(&a.0, &a.1, &all)
-            .restricted(&half)
+            .restricted_at(&half, &a.0, &a.1)
             .expect("subset");
         assert_eq!(restricted.face_count(), half.len());
         let moved = wavy(12, 0.01, 2.0);
@@ -664,7 +665,7 @@ mod tests {
         assert!(rays > 10, "rays hitting the subset: {rays}");
         // A face outside the tree cannot be restricted to.
         let small = TriangleBvh::build(&a.0, &a.1, &half);
-        assert!(small.restricted(&all).is_none());
+        assert!(small.restricted_at(&all, &a.0, &a.1).is_none());
     }
 
     #[test]

@@ -47,7 +47,7 @@ impl MeshIndex {
     }
 
     /// [`MeshIndex::with_faces`], the BVH restricted from `within` when it holds every face
-    /// (see [`TriangleBvh::restricted`]), else built.
+    /// (see [`TriangleBvh::restricted_at`]), else built.
     fn with_faces_in(
         rest_positions: &[Point3<f64>],
         triangles: &[[u32; 3]],
@@ -72,12 +72,9 @@ impl MeshIndex {
         keys.sort_unstable();
         keys.dedup();
         let edges: Vec<[u32; 2]> = keys.iter().map(|&k| [(k >> 32) as u32, k as u32]).collect();
-        let restricted = within.and_then(|w| w.restricted(&kept)).map(|mut t| {
-            t.refit(rest_positions, triangles);
-            t
-        });
-        let bvh =
-            restricted.unwrap_or_else(|| TriangleBvh::build(rest_positions, triangles, &kept));
+        let bvh = within
+            .and_then(|w| w.restricted_at(&kept, rest_positions, triangles))
+            .unwrap_or_else(|| TriangleBvh::build(rest_positions, triangles, &kept));
         let (vertex_edge_offsets, vertex_edge_ids) = vertex_edges(vertex_count, &edges);
         let mut used = vec![false; vertex_count];
         for &f in &kept {
@@ -181,11 +178,6 @@ impl MeshIndex {
             .binary_search(&canonical(a, b))
             .ok()
             .map(|i| i as u32)
-    }
-
-    /// The BVH, at the positions of the last build or refit.
-    pub fn bvh(&self) -> &TriangleBvh {
-        &self.bvh
     }
 
     /// The surface at one frame: the BVH refitted to `positions` (same topology).

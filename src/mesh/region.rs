@@ -96,6 +96,16 @@ impl Region {
         self.edge_lookup.get(&(a.min(b), a.max(b))).copied()
     }
 
+    /// Neighbours of each local vertex over the region's edges (local ids).
+    pub fn adjacency(&self) -> Vec<Vec<u32>> {
+        let mut adjacency = vec![Vec::new(); self.vertex_count()];
+        for &[a, b] in &self.edges {
+            adjacency[a as usize].push(b);
+            adjacency[b as usize].push(a);
+        }
+        adjacency
+    }
+
     /// Gathers mesh-indexed values onto the local vertices.
     pub fn gather<T: Copy>(&self, mesh_values: &[T]) -> Vec<T> {
         self.vertices

@@ -65,6 +65,14 @@ impl DirectionSource {
         }
     }
 
+    /// The fixed vector, for [`DirectionSource::Fixed`] (for reports).
+    pub fn fixed(&self) -> Option<[f64; 3]> {
+        match self {
+            DirectionSource::Fixed(d) => Some([d.x, d.y, d.z]),
+            _ => None,
+        }
+    }
+
     /// `"skeleton"`, `"fixed"` or `"motion"` (for reports).
     pub fn label(&self) -> &'static str {
         match self {

@@ -189,6 +189,19 @@ pub struct FoldTimings {
     pub stages: StageTimings,
 }
 
+impl std::ops::AddAssign for FoldTimings {
+    /// Times of several folds, summed step by step.
+    fn add_assign(&mut self, b: Self) {
+        self.detection += b.detection;
+        self.crease += b.crease;
+        self.contact += b.contact;
+        self.directions += b.directions;
+        self.deformation += b.deformation;
+        self.volume += b.volume;
+        self.stages += b.stages;
+    }
+}
+
 impl FoldTimings {
     /// The fold's whole time: the sum of its steps.
     pub fn total(&self) -> f64 {
@@ -265,9 +278,8 @@ impl FoldPre {
         faces.dedup();
         let labels = rest_labels(triangles, &regions);
         let detect = MeshIndex::self_contact_parts(rest, triangles, &labels)?;
-        let parts_tree = MeshIndex::with_faces(rest, triangles, &faces)?
-            .bvh()
-            .clone();
+        // The indices were checked by `detect` (over the same faces).
+        let parts_tree = crate::intersect::bvh::TriangleBvh::build(rest, triangles, &faces);
         // Only the topology is needed here (no factorization of the whole mesh).
         let closed = crate::mesh::Region::whole(triangles).is_closed();
         let winding =
@@ -275,7 +287,7 @@ impl FoldPre {
         let topology = CreaseTopology::new(triangles, &faces);
         let toward = border_sides(triangles, &regions);
         let joint_size = regions.joint_size(rest);
-        let shared_adjacency = edge_adjacency(&shared.solver.region);
+        let shared_adjacency = shared.solver.region.adjacency();
         Ok(Self {
             joint_size,
             regions,
@@ -322,16 +334,6 @@ impl FoldPre {
     }
 }
 
-/// Neighbours of each local vertex of `region` over its edges (local ids).
-fn edge_adjacency(region: &crate::mesh::Region) -> Vec<Vec<u32>> {
-    let mut adjacency = vec![Vec::new(); region.vertex_count()];
-    for &[a, b] in &region.edges {
-        adjacency[a as usize].push(b);
-        adjacency[b as usize].push(a);
-    }
-    adjacency
-}
-
 /// Per vertex of `R`: whether it is adjacent to `W1 \ R` and to `W2 \ R`.
 fn border_sides(triangles: &[[u32; 3]], r: &PairRegions) -> Vec<(bool, bool)> {
     let mut toward = vec![(false, false); r.w1.len()];
@@ -368,22 +370,8 @@ fn rest_labels(triangles: &[[u32; 3]], r: &PairRegions) -> Vec<u8> {
         .collect()
 }
 
-/// The fold in one frame: `None` when it does not intersect itself.
-pub fn resolve_fold(
-    pre: &FoldPre,
-    positions: &[Point3<f64>],
-    normals: &[Vector3<f64>],
-    triangles: &[[u32; 3]],
-    direction: Vector3<f64>,
-    params: &FoldParams,
-) -> Result<Option<FoldOutput>, FoldError> {
-    match pre.detect(positions, triangles)? {
-        Some(d) => resolve_detected(pre, &d, positions, normals, triangles, direction, params),
-        None => Ok(None),
-    }
-}
-
-/// [`resolve_fold`] after [`FoldPre::detect`] found the fold intersecting itself.
+/// The fold in one frame, once [`FoldPre::detect`] found it intersecting itself: `None` when
+/// the truncated parts turn out not to be in contact.
 pub fn resolve_detected(
     pre: &FoldPre,
     detection: &Detection,
@@ -740,7 +728,8 @@ fn zones_to_the_crease(
     contact: &mut Contact,
 ) {
     let region = &pre.shared.solver.region;
-    let length = mean_edge_length(region, positions);
+    // The body's mean edge length in this frame (computed once, with the test).
+    let length = test.h;
     let inside = |v: usize| test.at(v, &positions[v], &normals[v]);
     // Zones are extended, not created: a zone made of crease vertices alone can sit on the
     // working region's border, where the extent is capped to nothing and no bulge can
@@ -778,17 +767,6 @@ fn zones_to_the_crease(
     for side in &mut contact.sides {
         side.zone.vertices.sort_unstable();
     }
-}
-
-/// Mean length of `region`'s edges at `positions` (mesh indexed).
-fn mean_edge_length(region: &crate::mesh::Region, positions: &[Point3<f64>]) -> f64 {
-    let at = |l: u32| positions[region.vertices[l as usize] as usize];
-    let sum: f64 = region
-        .edges
-        .iter()
-        .map(|&[a, b]| (at(a) - at(b)).norm())
-        .sum();
-    sum / region.edges.len().max(1) as f64
 }
 
 /// Whether `side`'s sample of `v` places it on `S` by a displacement that agrees with its

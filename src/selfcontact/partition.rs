@@ -235,11 +235,7 @@ fn solve_harmonic(
 /// Connected parts of `region` and how many of them carry a single Dirichlet value.
 fn component_counts(region: &Region, fixed: &[Option<f64>]) -> (usize, usize) {
     let m = region.vertex_count();
-    let mut adjacency: Vec<Vec<u32>> = vec![Vec::new(); m];
-    for e in &region.edges {
-        adjacency[e[0] as usize].push(e[1]);
-        adjacency[e[1] as usize].push(e[0]);
-    }
+    let adjacency = region.adjacency();
     let mut seen = vec![false; m];
     let (mut components, mut one_sided) = (0, 0);
     for start in 0..m {

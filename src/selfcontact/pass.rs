@@ -258,7 +258,7 @@ impl SelfContactPass {
             return Ok(false);
         };
         out.unbalanced += usize::from(o.unbalanced);
-        add(&mut out.timings, &o.timings);
+        out.timings += o.timings;
         let moved = !o.unbalanced;
         positions[fold.body].clone_from(&o.positions);
         out.folds.push(FoldReport {
@@ -269,14 +269,4 @@ impl SelfContactPass {
         });
         Ok(moved)
     }
-}
-
-fn add(a: &mut FoldTimings, b: &FoldTimings) {
-    a.detection += b.detection;
-    a.crease += b.crease;
-    a.contact += b.contact;
-    a.directions += b.directions;
-    a.deformation += b.deformation;
-    a.volume += b.volume;
-    a.stages = crate::pass::add_timings(&a.stages, &b.stages);
 }
