@@ -39,6 +39,16 @@ pub(crate) struct SoSSign {
 /// Sign of `(b - a) × (c - a) · (d - a)` (positive when `d` is on the side of the normal of the
 /// counter-clockwise triangle `abc`), exact.
 pub(crate) fn orient3d(a: &Point3<f64>, b: &Point3<f64>, c: &Point3<f64>, d: &Point3<f64>) -> i8 {
+    orient3d_filtered(a, b, c, d).unwrap_or_else(|| -orient3d_exact(a, b, c, d))
+}
+
+/// [`orient3d`] in floating point when Shewchuk's error bound certifies its sign, else `None`.
+fn orient3d_filtered(
+    a: &Point3<f64>,
+    b: &Point3<f64>,
+    c: &Point3<f64>,
+    d: &Point3<f64>,
+) -> Option<i8> {
     // Shewchuk's orient3d evaluates det[a-d, b-d, c-d], which is minus ours.
     let (adx, bdx, cdx) = (a.x - d.x, b.x - d.x, c.x - d.x);
     let (ady, bdy, cdy) = (a.y - d.y, b.y - d.y, c.y - d.y);
@@ -52,12 +62,12 @@ pub(crate) fn orient3d(a: &Point3<f64>, b: &Point3<f64>, c: &Point3<f64>, d: &Po
         + (adxbdy.abs() + bdxady.abs()) * cdz.abs();
     let bound = O3D_BOUND * permanent;
     if det > bound {
-        return -1;
+        Some(-1)
+    } else if -det > bound {
+        Some(1)
+    } else {
+        None
     }
-    if -det > bound {
-        return 1;
-    }
-    -orient3d_exact(a, b, c, d)
 }
 
 /// Sign of component `axis` of `(u1 - u0) × (v1 - v0)`, exact.
@@ -405,29 +415,12 @@ mod tests {
             d[k] = f64::from_bits((d[k].to_bits() as i64 + steps) as u64);
             let expected = expansion_orient3d(&a, &b, &c, &d);
             assert_eq!(orient3d(&a, &b, &c, &d), expected, "{a} {b} {c} {d}");
-            undecided += usize::from(filter_undecided(&a, &b, &c, &d));
+            undecided += usize::from(orient3d_filtered(&a, &b, &c, &d).is_none());
         }
         assert!(
             undecided > 1000,
             "the exact path was exercised {undecided} times"
         );
-    }
-
-    /// Whether the floating-point filter of [`orient3d`] leaves the sign to the exact path.
-    fn filter_undecided(
-        a: &Point3<f64>,
-        b: &Point3<f64>,
-        c: &Point3<f64>,
-        d: &Point3<f64>,
-    ) -> bool {
-        let (u, v, w) = (a - d, b - d, c - d);
-        let det = u.z * (v.x * w.y - w.x * v.y)
-            + v.z * (w.x * u.y - u.x * w.y)
-            + w.z * (u.x * v.y - v.x * u.y);
-        let permanent = ((v.x * w.y).abs() + (w.x * v.y).abs()) * u.z.abs()
-            + ((w.x * u.y).abs() + (u.x * w.y).abs()) * v.z.abs()
-            + ((u.x * v.y).abs() + (v.x * u.y).abs()) * w.z.abs();
-        det.abs() <= O3D_BOUND * permanent
     }
 
     #[test]
