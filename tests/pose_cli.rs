@@ -791,6 +791,7 @@ fn info_reports_the_joint_pairs_and_their_direction_source() {
     let p = &pairs[0];
     assert_eq!(p["name"], "lips/head-jaw");
     assert_eq!(p["direction_source"], "motion");
+    assert_eq!(sc["skipped"].as_array().map(Vec::len), Some(0));
     assert!(p["direction"].is_null());
     assert!(p["shared"].as_u64().expect("shared") > 0);
     let size = p["joint_size"].as_f64().expect("joint size");
@@ -800,4 +801,32 @@ fn info_reports_the_joint_pairs_and_their_direction_source() {
         "{extent} {size}"
     );
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A parent/child pair that cannot carry a partition of unity is named by `info` with the
+/// reason, in text and JSON: on Khronos's RiggedSimple (96 vertices) both joints' regions cover
+/// the whole cylinder at the default threshold, so the shared region has no border toward the
+/// parent side (before, `info` said no body was deformed by a parent and a child joint).
+#[test]
+fn info_names_the_pairs_it_skips_and_why() {
+    let rig = samples().join("RiggedSimple/RiggedSimple.glb");
+    if !rig.exists() {
+        println!("{}: not found, skipped", rig.display());
+        return;
+    }
+    let text = String::from_utf8(cli(&["info", s(&rig)]).stdout).expect("utf-8");
+    assert!(
+        text.contains("no usable joint pair")
+            && text.contains("skipped pair Cylinder/")
+            && text.contains("degenerate shared region"),
+        "{text}"
+    );
+    let json = String::from_utf8(cli(&["info", "--json", s(&rig)]).stdout).expect("utf-8");
+    let v: Value = serde_json::from_str(&json).expect("json");
+    let skipped = v["self_contact"]["skipped"].as_array().expect("skipped");
+    assert_eq!(skipped.len(), 1, "{skipped:?}");
+    assert!(skipped[0]
+        .as_str()
+        .is_some_and(|r| r.contains("no border vertex")));
+    assert_eq!(v["self_contact"]["pairs"].as_array().map(Vec::len), Some(0));
 }

@@ -128,6 +128,8 @@ fn real_characters_never_get_worse() {
         "QuaterniusRobot/robot.glb",
         "WebXRGenericHand/left.glb",
         "RiggedFigure/RiggedFigure.glb",
+        "RiggedSimple/RiggedSimple.glb",
+        "SimpleSkin/SimpleSkin.gltf",
     ] {
         let Some(path) = sample(rel) else {
             println!("{rel}: not found, skipped");

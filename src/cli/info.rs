@@ -6,7 +6,7 @@ use contact_skin::mesh::{TopologyReport, WeldedMesh};
 use contact_skin::pass::DEFAULT_EXTENT_FACTOR;
 use contact_skin::rig::{self, Rig};
 use contact_skin::selfcontact::DirectionSource;
-use contact_skin::selfcontact::{derive_pairs, PairRegions};
+use contact_skin::selfcontact::{derive_pairs_reporting, PairRegions};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
@@ -110,6 +110,9 @@ struct SelfContactInfo {
     pairs: Vec<SelfPairInfo>,
     /// Why the pairs could not be derived (`null` when they could).
     error: Option<String>,
+    /// Parent/child joint pairs left out, one reason each (e.g. a shared region without a
+    /// border toward one side, where no partition of unity exists).
+    skipped: Vec<String>,
 }
 
 #[derive(Serialize)]
@@ -210,10 +213,10 @@ fn describe_self_contact(
     welded: &[WeldedMesh],
 ) -> Result<SelfContactInfo, config::ConfigError> {
     let cfg = ContactConfig::for_rig(path, explicit)?.unwrap_or_default();
-    let (regions, error): (Vec<PairRegions>, Option<String>) =
-        match derive_pairs(rig, welded, &cfg.self_contact_regions()) {
-            Ok(r) => (r, None),
-            Err(e) => (Vec::new(), Some(e.to_string())),
+    let (regions, skipped, error): (Vec<PairRegions>, Vec<String>, Option<String>) =
+        match derive_pairs_reporting(rig, welded, &cfg.self_contact_regions()) {
+            Ok((r, skipped)) => (r, skipped, None),
+            Err(e) => (Vec::new(), Vec::new(), Some(e.to_string())),
         };
     let derived: Vec<(usize, String)> = regions
         .iter()
@@ -282,6 +285,7 @@ fn describe_self_contact(
         omega: f.deform.omega,
         pairs,
         error,
+        skipped,
     })
 }
 
@@ -308,8 +312,13 @@ fn print_self_contact(s: &SelfContactInfo) {
     );
     if let Some(e) = &s.error {
         println!("    joint pairs cannot be derived: {e}");
-    } else if s.pairs.is_empty() {
+    } else if s.pairs.is_empty() && s.skipped.is_empty() {
         println!("    no joint pair (no body is deformed by a parent and a child joint)");
+    } else if s.pairs.is_empty() {
+        println!("    no usable joint pair");
+    }
+    for reason in &s.skipped {
+        println!("    skipped {reason}");
     }
     for p in &s.pairs {
         let direction = match (p.direction, p.direction_source) {

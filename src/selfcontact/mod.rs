@@ -34,8 +34,8 @@ pub mod regions;
 pub use direction::{child_end, skeleton_direction, BoneAxes, DirectionSource, LeafAxisSource};
 pub use partition::{partition_of_unity, partition_of_unity_with_stats, PartitionStats};
 pub use regions::{
-    derive_pairs, pairs_for_joints, JointPair, PairRegions, RegionOptions, DEFAULT_GROW_RINGS,
-    DEFAULT_THRESHOLD,
+    derive_pairs, derive_pairs_reporting, pairs_for_joints, JointPair, PairRegions, RegionOptions,
+    DEFAULT_GROW_RINGS, DEFAULT_THRESHOLD,
 };
 
 use crate::heat::HeatError;
