@@ -286,7 +286,7 @@ fn the_motion_direction_agrees_with_the_skeleton_and_the_vertical() {
                     -Vector3::y()
                 } else {
                     let axes = BoneAxes::new(&l.rig, &l.pre.welded[p.pair.body], p);
-                    skeleton_direction(&l.rig, &pose, &p.pair, axes.leaf_axis).expect("skeleton")
+                    skeleton_direction(&pose, &p.pair, axes.leaf_axis).expect("skeleton")
                 };
                 let cosine = fold.direction.dot(&reference).clamp(-1.0, 1.0);
                 worst = worst.max(cosine.acos().to_degrees());
@@ -382,7 +382,7 @@ impl CapsuleFold {
         let input = l.frame(f).swap_remove(0);
         let pose = l.rig.pose_at(Some(0), l.times[f]);
         let direction =
-            skeleton_direction(&l.rig, &pose, &self.pair, self.axes.leaf_axis).expect("direction");
+            skeleton_direction(&pose, &self.pair, self.axes.leaf_axis).expect("direction");
         let normals = vertex_normals(&input, &l.triangles[0], NormalWeighting::Area);
         let detection = self
             .pre
@@ -586,6 +586,16 @@ fn bad_input_gives_typed_errors() {
     let mut short = l.frame(30);
     short[0].truncate(10);
     assert!(pass.run(&l.rig, &pose, &mut short).is_err());
+    // A pose of another rig (fewer nodes): refused before any fold reads a joint from it.
+    let mut frame = l.frame(30);
+    let before = frame.clone();
+    let mut other = pose.clone();
+    other.world.pop();
+    assert!(matches!(
+        pass.run(&l.rig, &other, &mut frame),
+        Err(SelfPassError::Mismatch(_))
+    ));
+    assert_eq!(frame, before, "nothing moved");
 }
 
 /// The "exterior of the joint unchanged where β = 0.5 and no contact": on the convex

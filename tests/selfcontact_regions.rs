@@ -358,8 +358,8 @@ fn skeleton_direction_follows_the_bend() {
     let mut at_90 = None;
     for &t in &times {
         let pose = rig.pose_at(Some(anim), t);
-        let d = skeleton_direction(rig, &pose, &p.pair, axes.leaf_axis).expect("direction");
-        let source = DirectionSource::Skeleton.direction(rig, &pose, &p.pair, &axes, None);
+        let d = skeleton_direction(&pose, &p.pair, axes.leaf_axis).expect("direction");
+        let source = DirectionSource::Skeleton.direction(&pose, &p.pair, &axes, None);
         assert_eq!(source, Some(d));
         let at = |n: usize| pose.world[n].transform_point(&Point3::origin());
         let joint = at(p.pair.child_joint);
@@ -414,18 +414,18 @@ fn skeleton_direction_degenerates_only_at_a_full_fold() {
         locals[p.pair.child_joint] = LocalTransform::Trs(trs);
         rig.pose_from_locals(&locals)
     };
-    assert!(skeleton_direction(rig, &pose_at(180.0), &p.pair, axes.leaf_axis).is_none());
-    assert!(skeleton_direction(rig, &pose_at(179.0), &p.pair, axes.leaf_axis).is_some());
+    assert!(skeleton_direction(&pose_at(180.0), &p.pair, axes.leaf_axis).is_none());
+    assert!(skeleton_direction(&pose_at(179.0), &p.pair, axes.leaf_axis).is_some());
     // A leaf joint without axis has no direction; a fixed direction is normalized.
     let rest = rig.pose_at(None, 0.0);
-    assert!(skeleton_direction(rig, &rest, &p.pair, None).is_none());
+    assert!(skeleton_direction(&rest, &p.pair, None).is_none());
     let fixed = DirectionSource::Fixed(Vector3::new(0.0, 3.0, 0.0));
     assert_eq!(
-        fixed.direction(rig, &rest, &p.pair, &axes, None),
+        fixed.direction(&rest, &p.pair, &axes, None),
         Some(Vector3::y())
     );
     let zero = DirectionSource::Fixed(Vector3::zeros());
-    assert_eq!(zero.direction(rig, &rest, &p.pair, &axes, None), None);
+    assert_eq!(zero.direction(&rest, &p.pair, &axes, None), None);
 }
 
 #[test]
@@ -502,4 +502,94 @@ fn degenerate_inputs_give_no_pair_or_a_typed_error() {
         partition_of_unity(&pos[..10], &welded[0].triangles, &w1[..10], &w2[..10]),
         Err(SelfContactError::InconsistentInput(_))
     ));
+}
+
+/// The committed finger with its joint nodes taken out of their hierarchy (all four side by
+/// side under the root, as a hand tracker's) and named as a tracked hand's index finger: the
+/// joint tree then comes from the names, and everything the self-contact pass derives and does
+/// is what it derives and does on the nested finger (same regions, `β`, bone ends and, posed
+/// by the same world matrices, the same output to the bit).
+#[test]
+fn a_flat_hand_skin_gets_the_tree_of_its_joint_names() {
+    use contact_skin::selfcontact::fold::FoldParams;
+    use contact_skin::selfcontact::pass::SelfContactPass;
+    use contact_skin::selfcontact::{JointTree, TreeSource};
+    let l = scenes::load("finger", 31);
+    let nested = &l.rig;
+    let mut flat = nested.clone();
+    let skin = &nested.skins[0];
+    let root = nested.nodes[skin.joints[0]].parent;
+    let names = [
+        "index-finger-metacarpal",
+        "index-finger-phalanx-proximal",
+        "index-finger-phalanx-intermediate",
+        "index-finger-phalanx-distal",
+    ];
+    for (k, &j) in skin.joints.iter().enumerate() {
+        assert_eq!(
+            nested.nodes[j].name.as_deref(),
+            Some(["metacarpal", "proximal", "middle", "distal"][k])
+        );
+        flat.nodes[j].name = Some(names[k].into());
+        flat.nodes[j].parent = root;
+        flat.nodes[j].children.retain(|c| !skin.joints.contains(c));
+    }
+    if let Some(r) = root {
+        for &j in &skin.joints {
+            if !flat.nodes[r].children.contains(&j) {
+                flat.nodes[r].children.push(j);
+            }
+        }
+    }
+    let body = &flat.bodies[0];
+    let tree = JointTree::of_body(&flat, body, &flat.skins[0]);
+    assert_eq!(tree.source, TreeSource::HandJointNames);
+    assert_eq!(tree.parent, vec![None, Some(0), Some(1), Some(2)]);
+    let nested_tree = JointTree::of_body(nested, &nested.bodies[0], skin);
+    assert_eq!(nested_tree.source, TreeSource::Hierarchy);
+    assert_eq!(nested_tree.parent, tree.parent);
+
+    let options = RegionOptions::default();
+    let a = derive_pairs(nested, &l.pre.welded, &options).expect("nested pairs");
+    let b = derive_pairs(&flat, &l.pre.welded, &options).expect("flat pairs");
+    assert_eq!(a.len(), 3);
+    assert_eq!(a.len(), b.len());
+    for (p, q) in a.iter().zip(&b) {
+        assert_eq!(
+            (p.pair.parent_joint, p.pair.child_joint, p.pair.bone_end),
+            (q.pair.parent_joint, q.pair.child_joint, q.pair.bone_end)
+        );
+        assert_eq!((&p.w1, &p.w2, &p.shared), (&q.w1, &q.w2, &q.shared));
+        assert_eq!(p.beta, q.beta);
+    }
+
+    let rest = scenes::welded_positions(nested, &l.pre, 0.0, None);
+    let pass = |rig: &Rig| {
+        SelfContactPass::new(
+            rig,
+            &l.pre.welded,
+            &rest,
+            &options,
+            FoldParams::default(),
+            &[],
+        )
+        .expect("pass")
+    };
+    let (pa, pb) = (pass(nested), pass(&flat));
+    let f = 24;
+    let pose = nested.pose_at(Some(0), l.times[f]);
+    let (mut oa, mut ob) = (l.frame(f), l.frame(f));
+    let ra = pa.run(nested, &pose, &mut oa).expect("nested runs");
+    let rb = pb.run(&flat, &pose, &mut ob).expect("flat runs");
+    assert!(!ra.folds.is_empty(), "frame {f} folds");
+    assert_eq!(ra.folds.len(), rb.folds.len());
+    assert_eq!(oa, ob);
+
+    // Flat joints with other names have no tree: no pair.
+    let mut unnamed = flat.clone();
+    for (k, &j) in skin.joints.iter().enumerate() {
+        unnamed.nodes[j].name = Some(format!("bone{k}"));
+    }
+    let pairs = derive_pairs(&unnamed, &l.pre.welded, &options).expect("no pairs");
+    assert!(pairs.is_empty());
 }

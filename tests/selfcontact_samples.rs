@@ -174,3 +174,149 @@ fn bulges_higher_than_their_band_are_refused() {
     );
     assert!(s.volume < 1e-4, "volume error {:.1e}", s.volume);
 }
+
+/// The pose of Khronos's WebXR left hand with `fingers` curled toward the palm by `angles`
+/// (radians) at their proximal, intermediate and distal joints, about the hand's lateral axis
+/// (from the index finger's knuckle to the little finger's), as a hand tracker poses it: each
+/// joint's world matrix set on its own (the joint nodes are not nested).
+fn curled_hand(rig: &rig::Rig, fingers: &[&str], angles: [f64; 3]) -> rig::Pose {
+    use nalgebra::{Matrix4, Point3, Rotation3, Translation3, Unit, Vector3};
+    let mut pose = rig.pose_at(None, 0.0);
+    let node = |name: &str| {
+        rig.nodes
+            .iter()
+            .position(|n| n.name.as_deref() == Some(name))
+            .unwrap_or_else(|| panic!("joint {name}"))
+    };
+    let at = |m: &Matrix4<f64>| m.transform_point(&Point3::origin());
+    let rest = pose.clone();
+    let lateral = at(&rest.world[node("pinky-finger-phalanx-proximal")])
+        - at(&rest.world[node("index-finger-phalanx-proximal")]);
+    let axis = Unit::new_normalize(lateral);
+    for finger in fingers {
+        let mut g: Matrix4<f64> = Matrix4::identity();
+        let segments = [
+            "phalanx-proximal",
+            "phalanx-intermediate",
+            "phalanx-distal",
+            "tip",
+        ];
+        for (k, segment) in segments.iter().enumerate() {
+            let j = node(&format!("{finger}-finger-{segment}"));
+            if let Some(&angle) = angles.get(k) {
+                // Turn about this joint where the previous turns have carried it.
+                let pivot: Vector3<f64> = at(&(g * rest.world[j])).coords;
+                let turn = Translation3::from(pivot).to_homogeneous()
+                    * Rotation3::from_axis_angle(&axis, angle).to_homogeneous()
+                    * Translation3::from(-pivot).to_homogeneous();
+                g = turn * g;
+            }
+            pose.world[j] = g * rest.world[j];
+        }
+    }
+    pose
+}
+
+/// A tracked hand (Khronos's WebXR hand: 25 joint nodes side by side, no animation) gets its
+/// finger pairs from the joint names (19: four per finger, three for the thumb; the node
+/// hierarchy gives none), and with its four fingers curled by 110° at the middle and 90° at
+/// the last joint (the phalanges pressed into one another, the tips short of the palm) the pass
+/// resolves the folds. Measured: 29 → 3 penetrating vertices, no face turned, volume error
+/// 3e-16, largest displacement 0.36 edge lengths.
+#[test]
+fn a_tracked_hand_curls_into_contact() {
+    let rel = "WebXRGenericHand/left.glb";
+    let Some(path) = sample(rel) else {
+        println!("{rel}: not found, skipped");
+        return;
+    };
+    let rig = rig::load(&path).expect("sample loads");
+    let pre = Precomputed::new(&rig, Method::Lbs);
+    let rest = scenes::welded_positions(&rig, &pre, 0.0, None);
+    let pass = SelfContactPass::new(
+        &rig,
+        &pre.welded,
+        &rest,
+        &RegionOptions::default(),
+        FoldParams::default(),
+        &[],
+    )
+    .expect("pairs derive");
+    let names = pass.pairs();
+    assert_eq!(names.len(), 19, "{names:?}");
+    for (parent, child) in [
+        ("wrist", "thumb-metacarpal"),
+        ("thumb-phalanx-proximal", "thumb-phalanx-distal"),
+        ("wrist", "index-finger-metacarpal"),
+        ("index-finger-metacarpal", "index-finger-phalanx-proximal"),
+        (
+            "pinky-finger-phalanx-intermediate",
+            "pinky-finger-phalanx-distal",
+        ),
+    ] {
+        let name = format!("l_handMeshNode/{parent}-{child}");
+        assert!(names.iter().any(|(_, n)| *n == name), "{name}: {names:?}");
+    }
+    let fingers = ["index", "middle", "ring", "pinky"];
+    let pose = curled_hand(
+        &rig,
+        &fingers,
+        [0.0, 110f64.to_radians(), 90f64.to_radians()],
+    );
+    let bodies = rig
+        .bodies
+        .iter()
+        .map(|body| {
+            let matrices = pose.skin_matrices(&rig.skins[body.skin]);
+            contact_skin::skinning::skin(Method::Lbs, body, &matrices, None)
+        })
+        .collect();
+    let frame = frames::Frame {
+        index: 0,
+        time: 0.0,
+        bodies,
+    };
+    let input = frame.welded(&pre);
+    let mut out = input.clone();
+    let res = pass.run(&rig, &pose, &mut out).expect("self-contact runs");
+    let w = &pre.welded[0];
+    let h = mean_edge_length(&rest[0], &w.triangles);
+    let pen = |p: &[nalgebra::Point3<f64>]| {
+        let n = vertex_normals(p, &w.triangles, NormalWeighting::Area);
+        metrics::residual_penetration(p, &w.triangles, &n, h).vertices
+    };
+    let (before, after) = (pen(&input[0]), pen(&out[0]));
+    let skinned = frame.welded_normals(&pre);
+    let turned = metrics::turned_faces(&w.triangles, &input[0], &out[0], &skinned[0], h);
+    let volume = metrics::volume_error(
+        contact_skin::mesh::signed_volume(&input[0], &w.triangles),
+        contact_skin::mesh::signed_volume(&out[0], &w.triangles),
+    );
+    let moved = input[0]
+        .iter()
+        .zip(&out[0])
+        .map(|(p, q)| (p - q).norm() / h)
+        .fold(0.0, f64::max);
+    let folded: std::collections::BTreeSet<&str> =
+        res.folds.iter().map(|f| f.name.as_str()).collect();
+    println!(
+        "{rel} curled: {} pairs folded, penetrating {before} -> {after}, turned {} ({} buried), volume error {volume:.1e}, largest displacement {moved:.2} h, unbalanced {}",
+        folded.len(),
+        turned.turned,
+        turned.buried,
+        res.unbalanced
+    );
+    for finger in fingers {
+        let joint = format!(
+            "l_handMeshNode/{finger}-finger-phalanx-proximal-{finger}-finger-phalanx-intermediate"
+        );
+        assert!(folded.contains(joint.as_str()), "{joint} folds: {folded:?}");
+    }
+    assert!(before >= 10, "the curl interpenetrates: {before}");
+    assert_eq!(metrics::non_finite(&out[0]), 0);
+    assert!(after * 5 <= before, "{before} -> {after}");
+    assert_eq!(turned.turned, 0);
+    assert_eq!(res.unbalanced, 0);
+    assert!(volume < 1e-4, "volume error {volume:.1e}");
+    assert!(moved < 2.0, "a vertex moved by {moved:.1} edge lengths");
+}

@@ -50,14 +50,13 @@ impl DirectionSource {
     /// or `Motion` without `meeting`).
     pub fn direction(
         &self,
-        rig: &Rig,
         pose: &Pose,
         pair: &super::JointPair,
         axes: &BoneAxes,
         meeting: Option<&Meeting>,
     ) -> Option<Vector3<f64>> {
         match self {
-            DirectionSource::Skeleton => skeleton_direction(rig, pose, pair, axes.leaf_axis),
+            DirectionSource::Skeleton => skeleton_direction(pose, pair, axes.leaf_axis),
             DirectionSource::Fixed(v) => unit(*v),
             DirectionSource::Motion => {
                 meeting.and_then(|m| motion_direction(pose, m.rest_pose, pair, m.points))
@@ -155,7 +154,7 @@ impl BoneAxes {
         let Some(skin) = rig.skins.get(body.skin) else {
             return none;
         };
-        if let Some(end) = child_end(rig, pair) {
+        if let Some(end) = pair.bone_end {
             return Self {
                 source: LeafAxisSource::ChildJoint(end),
                 ..none
@@ -225,17 +224,6 @@ fn leaf_axis(points: &[Vector3<f64>]) -> Option<BoneAxes> {
     })
 }
 
-/// The first child node of the pair's child joint that is a joint of the body's skin.
-pub fn child_end(rig: &Rig, pair: &super::JointPair) -> Option<usize> {
-    let skin = rig.skins.get(rig.bodies.get(pair.body)?.skin)?;
-    rig.nodes
-        .get(pair.child_joint)?
-        .children
-        .iter()
-        .copied()
-        .find(|c| skin.joints.contains(c))
-}
-
 /// `d̂_12 = normalize(u2 - u1)` at `pose` (see the module doc; 2021 Sec. 6, "Mapping
 /// direction").
 ///
@@ -244,7 +232,6 @@ pub fn child_end(rig: &Rig, pair: &super::JointPair) -> Option<usize> {
 /// bones fold onto each other (180°), when a bone has zero length, when a leaf joint has no
 /// axis, or when a node is missing from the pose.
 pub fn skeleton_direction(
-    rig: &Rig,
     pose: &Pose,
     pair: &super::JointPair,
     leaf_axis: Option<Vector3<f64>>,
@@ -254,7 +241,7 @@ pub fn skeleton_direction(
     let child_world = world(pair.child_joint)?;
     let joint = position(child_world);
     let u1 = unit(position(world(pair.parent_joint)?) - joint)?;
-    let toward_end = match child_end(rig, pair) {
+    let toward_end = match pair.bone_end {
         Some(end) => position(world(end)?) - joint,
         None => child_world.transform_vector(&leaf_axis?),
     };
@@ -281,6 +268,7 @@ mod tests {
             body: 0,
             parent_joint: 0,
             child_joint: 1,
+            bone_end: None,
             name: "a/b".into(),
         }
     }

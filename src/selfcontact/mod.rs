@@ -9,29 +9,32 @@
 //! the mapping direction `d̂_12` and by `β`), each truncated region is deformed on its own, and
 //! the results are blended.
 //!
-//! What is here (everything that can be computed before the first frame, plus the per-frame
-//! skeleton direction):
+//! The modules, in the order of a frame:
 //! - [`regions`]: `W1`, `W2` and `R` of every parent/child joint pair that deforms a mesh,
 //!   derived from the skin weights ([`derive_pairs`]) or named by a rig config
-//!   ([`pairs_for_joints`]);
+//!   ([`pairs_for_joints`]), over the skin's [`joint_tree`] (the node hierarchy, or a tracked
+//!   hand's joint names when its joint nodes are not nested);
 //! - [`partition`]: the harmonic partition of unity `β` on `R` ([`partition_of_unity`]);
 //! - [`direction`]: the mapping direction `d̂_12` from the skeleton, orthogonal to the bones'
-//!   bisector in their plane ([`skeleton_direction`]), or a fixed user direction
-//!   ([`DirectionSource`]).
-//!
-//! What is still to come: the per-frame crease cut of `R` (Boykov–Kolmogorov over `R`'s
-//! vertices, `PIPELINE.md` "Self-contact: crease cut"), the signed direction field
-//! `d̄ = σ d̂_12` ("Self-contact: direction"), and the blend of the two deformations over `R`
-//! with one volume solve on the blended positions.
+//!   bisector in their plane ([`skeleton_direction`]), from the parts' relative motion, or a
+//!   fixed user direction ([`DirectionSource`]);
+//! - [`crease`]: the per-frame crease cut of `R` (min-cut over `R`'s vertices, `PIPELINE.md`
+//!   "Self-contact: crease cut");
+//! - [`fold`]: one joint folding into itself: contact on the truncated regions, the signed
+//!   direction field `d̄ = σ d̂_12`, both regions' deformation, the blend over `R` and one
+//!   volume solve on the blended positions;
+//! - [`pass`]: every joint pair of a rig, frame by frame, in sweeps.
 
 pub mod crease;
 pub mod direction;
 pub mod fold;
+pub mod joint_tree;
 pub mod partition;
 pub mod pass;
 pub mod regions;
 
-pub use direction::{child_end, skeleton_direction, BoneAxes, DirectionSource, LeafAxisSource};
+pub use direction::{skeleton_direction, BoneAxes, DirectionSource, LeafAxisSource};
+pub use joint_tree::{JointTree, TreeSource};
 pub use partition::{partition_of_unity, partition_of_unity_with_stats, PartitionStats};
 pub use regions::{
     derive_pairs, derive_pairs_reporting, pairs_for_joints, JointPair, PairRegions, RegionOptions,

@@ -157,7 +157,8 @@ impl SelfContactPass {
     }
 
     /// Resolves every fold of a frame in place (`positions`: welded positions per body, `pose`
-    /// the frame's skeleton pose).
+    /// the frame's skeleton pose, one world matrix per node of `rig`; a mismatch in either is
+    /// [`SelfPassError::Mismatch`], before anything moves).
     pub fn run(
         &self,
         rig: &Rig,
@@ -169,6 +170,13 @@ impl SelfContactPass {
                 "{} bodies, {} position sets",
                 self.triangles.len(),
                 positions.len()
+            )));
+        }
+        if pose.world.len() != rig.nodes.len() {
+            return Err(SelfPassError::Mismatch(format!(
+                "a pose of {} nodes for a rig of {}",
+                pose.world.len(),
+                rig.nodes.len()
             )));
         }
         for (b, (p, rest)) in positions.iter().zip(&self.rest).enumerate() {
@@ -184,7 +192,7 @@ impl SelfContactPass {
         for _ in 0..self.passes {
             let mut changed = false;
             for fold in &self.folds {
-                changed |= self.sweep_fold(fold, rig, pose, positions, &mut out)?;
+                changed |= self.sweep_fold(fold, pose, positions, &mut out)?;
             }
             // Nothing moved: a further sweep would find the same.
             if !changed {
@@ -196,13 +204,7 @@ impl SelfContactPass {
 
     /// `d̂_12` of `fold` at `pose` from its [`DirectionSource`]; the parts meet at the
     /// `crossing` vertices (those of the faces crossing the other part).
-    fn direction(
-        &self,
-        fold: &Fold,
-        rig: &Rig,
-        pose: &Pose,
-        crossing: &[u32],
-    ) -> Option<Vector3<f64>> {
+    fn direction(&self, fold: &Fold, pose: &Pose, crossing: &[u32]) -> Option<Vector3<f64>> {
         let rest = &self.rest[fold.body];
         let points: Vec<Point3<f64>> = match fold.direction {
             DirectionSource::Motion => crossing
@@ -217,14 +219,13 @@ impl SelfContactPass {
         };
         let pair = &fold.pre.regions.pair;
         fold.direction
-            .direction(rig, pose, pair, &fold.axes, Some(&meeting))
+            .direction(pose, pair, &fold.axes, Some(&meeting))
     }
 
     /// One fold in one sweep; whether it moved the body.
     fn sweep_fold(
         &self,
         fold: &Fold,
-        rig: &Rig,
         pose: &Pose,
         positions: &mut [Vec<Point3<f64>>],
         out: &mut SelfPassOutput,
@@ -240,7 +241,7 @@ impl SelfContactPass {
         let Some(detection) = fold.pre.detect(pos, tris).map_err(fail)? else {
             return Ok(false);
         };
-        let Some(direction) = self.direction(fold, rig, pose, &detection.vertices) else {
+        let Some(direction) = self.direction(fold, pose, &detection.vertices) else {
             out.no_direction += 1;
             return Ok(false);
         };

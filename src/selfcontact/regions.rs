@@ -14,6 +14,7 @@
 //! The welded weights of a vertex are the row of its representative file vertex
 //! ([`WeldedMesh::representative`]); the rest positions are the bind positions of the body.
 
+use super::joint_tree::{JointTree, TreeSource};
 use super::partition::{partition_of_unity_with_stats, vertex_adjacency, PartitionStats};
 use super::SelfContactError;
 use crate::mesh::WeldedMesh;
@@ -55,6 +56,9 @@ pub struct JointPair {
     pub parent_joint: usize,
     /// Node index of the child joint (`W2` is this joint and its descendants).
     pub child_joint: usize,
+    /// Node at the far end of the child joint's bone ([`JointTree::bone_end`]; `None` for a
+    /// leaf joint).
+    pub bone_end: Option<usize>,
     /// `body/parent-child`, from the node names (`finger/proximal-middle`).
     pub name: String,
 }
@@ -99,10 +103,12 @@ impl PairRegions {
 /// Working regions of every parent/child joint pair that deforms a body, body by body, in the
 /// skin's joint order of the child (2021 Sec. 6; `PIPELINE.md`, "Working regions").
 ///
-/// The parent of a joint is its nearest ancestor node that is a joint of the same skin and
-/// carries weight on the body (helper joints without weight are skipped). `welded[b]` is the
-/// welded mesh of `rig.bodies[b]`. A pair whose shared region is empty is skipped; a shared
-/// region without both Dirichlet borders is an error naming the pair.
+/// The parent of a joint is its parent in the skin's [`JointTree`]: its nearest ancestor node
+/// that is a joint of the same skin and carries weight on the body (helper joints without
+/// weight are skipped), or, for a tracked hand whose joint nodes are not nested, its parent
+/// by the joint names. `welded[b]` is the welded mesh of `rig.bodies[b]`. A pair whose
+/// shared region is empty is skipped; so is a shared region without both Dirichlet borders
+/// ([`derive_pairs_reporting`] says why).
 pub fn derive_pairs(
     rig: &Rig,
     welded: &[WeldedMesh],
@@ -124,15 +130,12 @@ pub fn derive_pairs_reporting(
     for (b, (body, mesh)) in rig.bodies.iter().zip(welded).enumerate() {
         let skin = skin_of(rig, body)?;
         check_body(body, mesh, skin)?;
-        let carries = carried_joints(body, skin.joints.len());
-        for (c, &child) in skin.joints.iter().enumerate() {
-            if !carries[c] {
-                continue;
-            }
-            let Some(p) = weighted_ancestor(rig, skin, &carries, child) else {
+        let tree = JointTree::of_body(rig, body, skin);
+        for c in 0..skin.joints.len() {
+            let Some(p) = tree.parent[c] else {
                 continue;
             };
-            match build_pair(rig, b, mesh, skin, p, c, options) {
+            match build_pair(rig, b, mesh, skin, &tree, [p, c], options) {
                 Ok(Some(pair)) => out.push(pair),
                 Ok(None) => {}
                 // A pair whose shared region cannot carry a partition of unity (one-sided or
@@ -189,7 +192,8 @@ pub fn pairs_for_joints<S: AsRef<str>>(
             };
             holders += 1;
             check_body(body, mesh, skin)?;
-            if let Some(pair) = build_pair(rig, b, mesh, skin, p, c, options)? {
+            let tree = JointTree::of_body(rig, body, skin);
+            if let Some(pair) = build_pair(rig, b, mesh, skin, &tree, [p, c], options)? {
                 out.push(pair);
             }
         }
@@ -279,48 +283,6 @@ fn check_body(body: &Body, mesh: &WeldedMesh, skin: &Skin) -> Result<(), SelfCon
     Ok(())
 }
 
-/// Per skin joint: some vertex of the body has a positive weight on it.
-fn carried_joints(body: &Body, joint_count: usize) -> Vec<bool> {
-    let mut carries = vec![false; joint_count];
-    for (&j, &w) in body.weights.joints.iter().zip(&body.weights.weights) {
-        if w > 0.0 {
-            if let Some(slot) = carries.get_mut(j as usize) {
-                *slot = true;
-            }
-        }
-    }
-    carries
-}
-
-/// Skin index of the nearest ancestor of `node` that is a weighted joint of `skin`.
-fn weighted_ancestor(rig: &Rig, skin: &Skin, carries: &[bool], node: usize) -> Option<usize> {
-    let mut current = rig.nodes.get(node)?.parent;
-    // The hierarchy is acyclic after loading; the step bound only guards against a bad input.
-    for _ in 0..rig.nodes.len() {
-        let n = current?;
-        if let Some(j) = skin.joints.iter().position(|&x| x == n) {
-            if carries.get(j).copied().unwrap_or(false) {
-                return Some(j);
-            }
-        }
-        current = rig.nodes.get(n)?.parent;
-    }
-    None
-}
-
-/// Whether `node` is `ancestor` or one of its descendants.
-fn descends_from(rig: &Rig, node: usize, ancestor: usize) -> bool {
-    let mut current = Some(node);
-    for _ in 0..=rig.nodes.len() {
-        match current {
-            Some(n) if n == ancestor => return true,
-            Some(n) => current = rig.nodes.get(n).and_then(|x| x.parent),
-            None => return false,
-        }
-    }
-    false
-}
-
 /// Display name of a node.
 pub(crate) fn node_name(rig: &Rig, node: usize) -> String {
     rig.nodes
@@ -335,8 +297,8 @@ fn build_pair(
     b: usize,
     mesh: &WeldedMesh,
     skin: &Skin,
-    p: usize,
-    c: usize,
+    tree: &JointTree,
+    [p, c]: [usize; 2],
     options: &RegionOptions,
 ) -> Result<Option<PairRegions>, SelfContactError> {
     let body = &rig.bodies[b];
@@ -345,6 +307,7 @@ fn build_pair(
         body: b,
         parent_joint: parent,
         child_joint: child,
+        bone_end: tree.bone_end(rig, skin, c),
         name: format!(
             "{}/{}-{}",
             body.name,
@@ -352,11 +315,7 @@ fn build_pair(
             node_name(rig, child)
         ),
     };
-    let below: Vec<bool> = skin
-        .joints
-        .iter()
-        .map(|&node| descends_from(rig, node, child))
-        .collect();
+    let below = tree.below(rig, skin, c);
     let n = mesh.vertex_count();
     let t = options.threshold;
     let mut seed1 = vec![false; n];
@@ -402,11 +361,17 @@ fn build_pair(
         .map_err(|e| e.for_pair(&pair.name))?;
     let reason = format!(
         "{name}: W1 = weight on {pj} > {t} ({n1} vertices), W2 = weight on {cj} and its \
-         descendants > {t} ({n2} vertices), each grown {rings} rings: W1 {v1} vertices / {f1} \
+         descendants{from} > {t} ({n2} vertices), each grown {rings} rings: W1 {v1} vertices / {f1} \
          faces, W2 {v2} vertices / {f2} faces; R {r} vertices / {rf} faces in {comp} part(s), \
          border beta = 1 on {d1}, beta = 0 on {d0}, {both} next to both (Neumann), {orph} \
          orphan(s); harmonic range before clamping [{lo:.3e}, {hi:.3e}]",
         name = pair.name,
+        from = match tree.source {
+            TreeSource::Hierarchy => "",
+            TreeSource::HandJointNames => {
+                " (joint nodes not nested: the tree of a tracked hand's joint names)"
+            }
+        },
         pj = node_name(rig, parent),
         cj = node_name(rig, child),
         rings = options.grow_rings,
