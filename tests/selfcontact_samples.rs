@@ -37,8 +37,15 @@ struct Summary {
     largest: f64,
 }
 
-/// Runs the self-contact pass with `params` on the character `rel` at `path` (LBS input).
-fn run_sample(rel: &str, path: &Path, params: FoldParams) -> Summary {
+/// A character loaded for LBS, its welded rest positions and its self-contact pass.
+struct Prepared {
+    rig: rig::Rig,
+    pre: Precomputed,
+    rest: Vec<Vec<nalgebra::Point3<f64>>>,
+    pass: SelfContactPass,
+}
+
+fn prepare(path: &Path, params: FoldParams) -> Prepared {
     let rig = rig::load(path).expect("sample loads");
     let pre = Precomputed::new(&rig, Method::Lbs);
     let rest = scenes::welded_positions(&rig, &pre, 0.0, None);
@@ -51,6 +58,22 @@ fn run_sample(rel: &str, path: &Path, params: FoldParams) -> Summary {
         &[],
     )
     .expect("pairs derive");
+    Prepared {
+        rig,
+        pre,
+        rest,
+        pass,
+    }
+}
+
+/// Runs the self-contact pass with `params` on the character `rel` at `path` (LBS input).
+fn run_sample(rel: &str, path: &Path, params: FoldParams) -> Summary {
+    let Prepared {
+        rig,
+        pre,
+        rest,
+        pass,
+    } = prepare(path, params);
     let anim = if rig.animations.is_empty() {
         None
     } else {
@@ -230,18 +253,12 @@ fn a_tracked_hand_curls_into_contact() {
         println!("{rel}: not found, skipped");
         return;
     };
-    let rig = rig::load(&path).expect("sample loads");
-    let pre = Precomputed::new(&rig, Method::Lbs);
-    let rest = scenes::welded_positions(&rig, &pre, 0.0, None);
-    let pass = SelfContactPass::new(
-        &rig,
-        &pre.welded,
-        &rest,
-        &RegionOptions::default(),
-        FoldParams::default(),
-        &[],
-    )
-    .expect("pairs derive");
+    let Prepared {
+        rig,
+        pre,
+        rest,
+        pass,
+    } = prepare(&path, FoldParams::default());
     let names = pass.pairs();
     assert_eq!(names.len(), 19, "{names:?}");
     for (parent, child) in [
