@@ -16,7 +16,8 @@
 //! hand's palm blends the metacarpals sideways (the index metacarpal shares a summed weight of
 //! 1.5 with the wrist, 14.9 with the middle metacarpal and 18.8 with the thumb's), so a maximum
 //! spanning tree of the shared weights links the metacarpals in a row, and a shortest-path tree
-//! over the joints' positions hangs fingers from their neighbours' metacarpals. Other flat skins keep the (empty) hierarchy: `info` says no pair was derived.
+//! over the joints' positions hangs fingers from their neighbours' metacarpals. Other flat skins
+//! keep the (empty) hierarchy: `info` says no pair was derived.
 
 use crate::rig::{Body, Rig, Skin};
 
@@ -196,11 +197,10 @@ fn is_named(name: &str, root: &str) -> bool {
 
 /// The tree of a skin whose joints are named as a tracked hand's: in every chain (the name
 /// without its segment) each segment hangs from the previous one present in the skin, the
-/// first from the wrist; `None` unless every weighted joint is the wrist, the palm or a
-/// segment and there is at least one chain. Joints without weight (the tips) have no parent
-/// but stay their bone's far end.
+/// first from the wrist, a palm joint from the wrist; other joints (a forearm) stay roots.
+/// `None` when that gives no weighted joint a weighted parent. Joints without weight (the
+/// tips) have no parent but stay their bone's far end.
 fn hand_tree(rig: &Rig, skin: &Skin, carries: &[bool]) -> Option<JointTree> {
-    let n = skin.joints.len();
     let names: Vec<String> = skin
         .joints
         .iter()
@@ -211,14 +211,27 @@ fn hand_tree(rig: &Rig, skin: &Skin, carries: &[bool]) -> Option<JointTree> {
                 .unwrap_or_default()
         })
         .collect();
+    let links = hand_links(&names, carries)?;
+    Some(JointTree {
+        carries: carries.to_vec(),
+        parent: links.parent,
+        children: links.children,
+        source: TreeSource::HandJointNames,
+    })
+}
+
+/// Parents (weighted joints only) and children (every joint, for the bone ends) of a tree.
+struct Links {
+    parent: Vec<Option<usize>>,
+    children: Vec<Vec<usize>>,
+}
+
+/// [`hand_tree`] on the joints' `names` and whether each `carries` weight.
+fn hand_links(names: &[String], carries: &[bool]) -> Option<Links> {
+    let n = names.len();
     let wrist = (0..n).find(|&j| is_named(&names[j], "wrist"));
     let palm = (0..n).find(|&j| is_named(&names[j], "palm"));
     let segments: Vec<Option<(String, usize)>> = names.iter().map(|x| hand_segment(x)).collect();
-    let understood =
-        (0..n).all(|j| !carries[j] || Some(j) == wrist || Some(j) == palm || segments[j].is_some());
-    if !understood || segments.iter().all(Option::is_none) {
-        return None;
-    }
     let mut parent = vec![None; n];
     let mut children = vec![Vec::new(); n];
     if let (Some(p), Some(w)) = (palm, wrist) {
@@ -244,25 +257,22 @@ fn hand_tree(rig: &Rig, skin: &Skin, carries: &[bool]) -> Option<JointTree> {
         list.sort_by_key(|&c| segments[c].as_ref().map(|(_, k)| *k));
     }
     // As in the hierarchy, a joint without weight is skipped: the parent is the nearest
-    // weighted joint up the chain (the chain is at most wrist, palm and five segments long).
-    let weighted_parent: Vec<Option<usize>> = (0..n)
+    // weighted joint up the chain (at most the wrist, the palm and five segments).
+    let weighted: Vec<Option<usize>> = (0..n)
         .map(|c| {
             let mut p = parent[c];
             for _ in 0..n {
                 match p {
-                    Some(j) if !carries[j] => p = parent[j],
+                    Some(j) if !carries.get(j).copied().unwrap_or(false) => p = parent[j],
                     _ => break,
                 }
             }
-            p.filter(|_| carries[c])
+            p.filter(|_| carries.get(c).copied().unwrap_or(false))
         })
         .collect();
-    let parent = weighted_parent;
-    Some(JointTree {
-        carries: carries.to_vec(),
-        parent,
+    weighted.iter().any(Option::is_some).then_some(Links {
+        parent: weighted,
         children,
-        source: TreeSource::HandJointNames,
     })
 }
 
@@ -294,5 +304,59 @@ mod tests {
         assert!(is_named("wrist", "wrist") && is_named("Left_Wrist", "wrist"));
         assert!(is_named("XR_HAND_JOINT_WRIST_EXT", "wrist"));
         assert!(!is_named("wristband", "wrist") && !is_named("forearm", "wrist"));
+    }
+
+    fn names(list: &[&str]) -> Vec<String> {
+        list.iter().map(|s| s.to_string()).collect()
+    }
+
+    #[test]
+    fn a_hand_chains_its_fingers_from_the_wrist() {
+        let n = names(&[
+            "forearm",
+            "wrist",
+            "thumb-metacarpal",
+            "thumb-phalanx-proximal",
+            "thumb-phalanx-distal",
+            "thumb-tip",
+            "index-finger-phalanx-proximal",
+            "index-finger-metacarpal",
+        ]);
+        // The tip carries no weight; an unknown weighted joint (a forearm) stays a root.
+        let carries = [true, true, true, true, true, false, true, true];
+        let links = hand_links(&n, &carries).expect("a hand");
+        assert_eq!(
+            links.parent,
+            vec![
+                None,
+                None,
+                Some(1),
+                Some(2),
+                Some(3),
+                None,
+                Some(7),
+                Some(1)
+            ]
+        );
+        assert_eq!(links.children[4], vec![5], "the tip ends the distal bone");
+        assert_eq!(links.children[1], vec![2, 7], "metacarpals, in joint order");
+    }
+
+    #[test]
+    fn an_unweighted_wrist_is_skipped_like_a_helper_joint() {
+        let n = names(&["wrist", "ring-metacarpal", "ring-proximal", "ring-distal"]);
+        let links = hand_links(&n, &[false, true, true, true]).expect("a hand");
+        assert_eq!(links.parent, vec![None, None, Some(1), Some(2)]);
+        let links = hand_links(&n, &[true, true, false, true]).expect("a hand");
+        assert_eq!(links.parent, vec![None, Some(0), None, Some(1)]);
+    }
+
+    #[test]
+    fn other_names_give_no_hand() {
+        let carries = [true, true, true];
+        assert!(hand_links(&names(&["hip", "knee", "ankle"]), &carries).is_none());
+        // Segments of different chains without a wrist: nothing hangs from anything.
+        let lone = names(&["a-metacarpal", "b-proximal", "c-distal"]);
+        assert!(hand_links(&lone, &carries).is_none());
     }
 }
