@@ -313,7 +313,10 @@ fn print_self_contact(s: &SelfContactInfo) {
     if let Some(e) = &s.error {
         println!("    joint pairs cannot be derived: {e}");
     } else if s.pairs.is_empty() && s.skipped.is_empty() {
-        println!("    no joint pair (no body is deformed by a parent and a child joint)");
+        println!(
+            "    no joint pair (no body is deformed by a parent and a child joint; joints whose \
+             nodes are not nested are paired only when named as a tracked hand's)"
+        );
     } else if s.pairs.is_empty() {
         println!("    no usable joint pair");
     }
