@@ -172,16 +172,17 @@ fn check(name: &str, r: &Run, max_after: usize, max_turned: usize, max_ratio: f6
 fn bending_capsule_fold() {
     let r = run("bending_capsule", 31, &[]);
     assert_eq!(r.pairs.len(), 1);
-    check("bending_capsule", &r, 0, 2, 3.0);
+    check("bending_capsule", &r, 0, 0, 3.0);
 }
 
 /// The same bend with Center-of-Rotation and dual-quaternion skinning as input: resolved with
-/// the volume kept, but not yet at the issue's targets (see the issue note): up to 3
-/// penetrating vertices at 140-150°, up to 18 faces turned at the crease's bottom (both
-/// measured with the paper's `τ = -1`; with `τ = 0`: CoR 5 and 30, DQS 2 and 22; before the
-/// buried band got the crease's intersection terms: CoR 19 and 57, DQS 22 and 61), and the
-/// temporal ratio reaches 25 (the profile around the sharp crease is large, about 2.5 h, and a
-/// crease vertex joining a zone jumps).
+/// the volume kept, but not yet at the issue's targets (see the issue note): up to 5 (CoR) and
+/// 4 (DQS) penetrating vertices at 120-150°, up to 15 and 9 faces turned at the crease's
+/// bottom (measured with the paper's `τ = -1` and the amplitude faded across the crease; before
+/// that fade: 2 and 3, 17 and 19; with `τ = 0`: CoR 5 and 30, DQS 2 and 22; before the buried
+/// band got the crease's intersection terms: CoR 19 and 57, DQS 22 and 61), and the temporal
+/// ratio reaches 22 (the input folds over along `d̂` at the inner elbow, and a vertex the
+/// crease cut moves across jumps by about 2 h).
 fn volume_preserving_input(method: Method) {
     let r = run_with("bending_capsule", 31, &[], method);
     assert!(
@@ -193,7 +194,7 @@ fn volume_preserving_input(method: Method) {
         assert_eq!(x.nan, 0, "{method:?} frame {f}: NaN");
         assert!(x.volume_error < 1e-4, "{method:?} frame {f}: volume");
         assert!(
-            x.after <= 3,
+            x.after <= 5,
             "{method:?} frame {f}: penetration {} -> {}",
             x.before,
             x.after
@@ -221,7 +222,7 @@ fn bending_capsule_fold_dqs() {
 fn finger_folds() {
     let r = run("finger", 31, &[]);
     assert_eq!(r.pairs.len(), 3);
-    check("finger", &r, 1, 3, 3.0);
+    check("finger", &r, 0, 0, 3.0);
 }
 
 /// The mouth closing, with the paper's hand-set vertical direction (Fig. 1d): the upper lip's
@@ -303,8 +304,8 @@ fn the_motion_direction_agrees_with_the_skeleton_and_the_vertical() {
 /// interpenetrating: the vertices `MEASURING.md` still flags (its nudge is 0.05 h, and two
 /// triangulations of one curved contact surface `S` cross each other by more) lie within
 /// 0.25 h of the surface on the other side of a fold's crease cut, which bounds how deep they
-/// can be. Measured at frames 20, 25 and 30: finger 389 flagged, 340 within 0.1 h, all within
-/// 0.25 h; capsule 7, all within 0.1 h. The second sweep clears them.
+/// can be. Measured at frames 20, 25 and 30 (summed): finger 393 flagged, capsule 12, all
+/// within 0.25 h. The second sweep clears them.
 #[test]
 fn one_sweep_leaves_the_folds_touching() {
     for name in ["finger", "bending_capsule"] {
@@ -643,4 +644,32 @@ fn exterior_of_the_joint_is_left_alone() {
             "gamma {gamma}: the bend folds in {folds} frames"
         );
     }
+}
+
+/// `STEEPEST_BULGE`: a band too narrow for the volume the fold removes is refused, not filled
+/// with a spike. With `φ̄` = 0.1 × the joint's size the capsule's bulge would have to rise 1.3 to
+/// 9 times higher than its band is wide (measured at 80-150°): each such fold is counted as
+/// unbalanced and leaves the input as it was; with the default `φ̄` (1.75 × the joint's size)
+/// no fold is refused and the bulge stays below a tenth of its band.
+#[test]
+fn bulges_higher_than_their_band_are_refused() {
+    use contact_skin::selfcontact::fold::STEEPEST_BULGE;
+    let fold = CapsuleFold::new();
+    let narrow = FoldParams {
+        joint_extent: Some(0.1),
+        ..FoldParams::default()
+    };
+    let mut refused = 0;
+    for f in [16, 20, 24, 28, 30] {
+        let frame = fold.at(f, &narrow);
+        let out = frame.out.expect("the bend folds");
+        assert!(out.bulge_steepness > STEEPEST_BULGE, "frame {f}");
+        assert!(out.unbalanced, "frame {f}: refused");
+        assert_eq!(out.positions, frame.input, "frame {f}: the input is kept");
+        refused += 1;
+        let frame = fold.at(f, &FoldParams::default());
+        let out = frame.out.expect("the bend folds");
+        assert!(!out.unbalanced && out.bulge_steepness < 0.1, "frame {f}");
+    }
+    assert_eq!(refused, 5);
 }

@@ -166,7 +166,7 @@ fn real_characters_never_get_worse() {
             s.after
         );
         assert!(s.volume < 1e-4, "{rel}: volume error {:.1e}", s.volume);
-        // No spike: measured 4.1 edge lengths at most (CesiumMan).
+        // No spike: measured 5.3 edge lengths at most (CesiumMan).
         assert!(
             s.largest < 8.0,
             "{rel}: the pass moved a vertex by {:.1} edge lengths",
@@ -175,12 +175,14 @@ fn real_characters_never_get_worse() {
     }
 }
 
-/// `STEEPEST_BULGE` on the case that needed it: with the object pass's extent floor (`κ = 3`)
-/// CesiumMan's frame 5 got bulges of 14 to 42 edge lengths from zones of a few vertices on
-/// their regions' borders (a vertex moved by 23 edge lengths); the rule refuses those folds.
-/// Measured with the rule: 2 folds refused, 9.1 edge lengths at most.
+/// CesiumMan with the object pass's extent floor (`κ = 3`), which spreads a fold whose
+/// intersection runs along the body over a large extent: before the amplitude faded across the
+/// crease, frame 5 got bulges of 14 to 42 edge lengths from zones of a few vertices on their
+/// regions' borders, which `STEEPEST_BULGE` refused (2 folds; `bulges_higher_than_their_band_
+/// are_refused` in `tests/selfcontact.rs` now exercises the rule). Measured now: no fold
+/// refused, 9.8 edge lengths at most, volume exact.
 #[test]
-fn bulges_higher_than_their_band_are_refused() {
+fn cesium_man_with_the_object_pass_extent_floor_stays_bounded() {
     let rel = "CesiumMan/CesiumMan.glb";
     let Some(path) = sample(rel) else {
         println!("{rel}: not found, skipped");
@@ -189,7 +191,7 @@ fn bulges_higher_than_their_band_are_refused() {
     let mut params = FoldParams::default();
     params.deform.intersection_extent_factor = 3.0;
     let s = run_sample(rel, &path, params);
-    assert!(s.unbalanced > 0, "the steep folds are refused");
+    assert!(s.after <= s.before, "{} -> {}", s.before, s.after);
     assert!(
         s.largest < 12.0,
         "the pass moved a vertex by {:.1} edge lengths",
@@ -244,8 +246,8 @@ fn curled_hand(rig: &rig::Rig, fingers: &[&str], angles: [f64; 3]) -> rig::Pose 
 /// finger pairs from the joint names (19: four per finger, three for the thumb; the node
 /// hierarchy gives none), and with its four fingers curled by 110° at the middle and 90° at
 /// the last joint (the phalanges pressed into one another, the tips short of the palm) the pass
-/// resolves the folds. Measured: 29 → 3 penetrating vertices, no face turned, volume error
-/// 3e-16, largest displacement 0.36 edge lengths.
+/// resolves the folds. Measured: 29 → 4 penetrating vertices, no face turned, volume error
+/// 2e-16, largest displacement 0.37 edge lengths.
 #[test]
 fn a_tracked_hand_curls_into_contact() {
     let rel = "WebXRGenericHand/left.glb";

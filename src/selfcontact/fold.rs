@@ -57,11 +57,12 @@ pub const UNBALANCED_VOLUME: f64 = 1e-6;
 /// the fold unbalanced (see [`FoldOutput::unbalanced`]). Such a bulge is steeper than 45° on
 /// average: it happens when a zone of a few vertices sits on its region's border, where the
 /// extent is capped to almost nothing and the whole lost volume must rise from a sliver.
-/// Measured (largest ratio per fold): at most 0.055 over the committed rigs' animations;
-/// on CesiumMan with the object pass's extent floor (`κ = 3`) at most 0.46 except four folds
-/// at 1.4, 1.6, 1.9 and 12 (bulges of 14 to 42 edge lengths in frame 5, which took that frame
-/// from 17 to 116 penetrating vertices); with the folds' own floor ([`FOLD_EXTENT_FLOOR`])
-/// none is refused there, and the rule stays a safeguard.
+/// Measured (largest ratio per fold): below 0.1 over the committed rigs' animations. Before
+/// the amplitude faded across the crease (`deform::region`), CesiumMan with the object pass's
+/// extent floor (`κ = 3`) had four folds at 1.4, 1.6, 1.9 and 12 (bulges of 14 to 42 edge
+/// lengths in frame 5, which took that frame from 17 to 116 penetrating vertices); now none
+/// there with either floor, and the rule stays a safeguard, exercised by the bending capsule
+/// with `φ̄` = 0.1 × the joint's size (ratios 1.3 to 9, every fold refused).
 pub const STEEPEST_BULGE: f64 = 1.0;
 
 /// β of the fold's winding-number tree. Its queries only decide "inside twice" (a winding
@@ -79,10 +80,11 @@ pub const DEFAULT_FOLD_TAU: f64 = -1.0;
 /// times the distance from the zone to the intersection curve) let a fold whose intersection
 /// runs far along the body spread its deformation over it: on CesiumMan a 3-vertex zone's
 /// region got an extent of 3 scene units (the figure is 1.5 tall) and turned 277 faces.
-/// Measured against `κ = 3` (21 frames, summed): CesiumMan 67 → 49 penetrating vertices, 590 →
-/// 260 turned faces, 2 → 0 folds refused, largest displacement 9.1 → 4.1 edge lengths; the
-/// committed rigs unchanged (the floor set a fold's extent in 3 of 496 region deformations,
-/// all on the CoR capsule, with the same metrics); `κ = 1.5` gives CesiumMan 48 and 255.
+/// Measured against `κ = 3` (21 frames, summed): CesiumMan 88 → 54 penetrating vertices, 688 →
+/// 225 turned faces, largest displacement 9.8 → 5.3 edge lengths (before the amplitude faded
+/// across the crease: 67 → 49, 590 → 260, 2 → 0 folds refused, 9.1 → 4.1, and the committed
+/// rigs unchanged: the floor set a fold's extent in 3 of 496 region deformations, all on the
+/// CoR capsule, with the same metrics).
 pub const FOLD_EXTENT_FLOOR: f64 = 0.0;
 
 /// Default [`FoldParams::joint_extent`].
