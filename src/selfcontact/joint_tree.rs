@@ -57,21 +57,18 @@ impl JointTree {
                 }
             })
             .collect();
-        let nested = parent.iter().any(Option::is_some);
-        if nested || carries.iter().filter(|&&c| c).count() < 2 {
-            return Self {
-                children: vec![Vec::new(); skin.joints.len()],
-                carries,
-                parent,
-                source: TreeSource::Hierarchy,
-            };
+        let flat = parent.iter().all(Option::is_none) && carries.iter().filter(|&&c| c).count() > 1;
+        if flat {
+            if let Some(tree) = hand_tree(rig, skin, &carries) {
+                return tree;
+            }
         }
-        hand_tree(rig, skin, &carries).unwrap_or(Self {
+        Self {
             children: vec![Vec::new(); skin.joints.len()],
             carries,
             parent,
             source: TreeSource::Hierarchy,
-        })
+        }
     }
 
     /// Per skin joint: `joint` itself or below it.
