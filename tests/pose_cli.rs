@@ -600,6 +600,7 @@ fn self_contact_resolves_the_bending_capsule_and_does_not_depend_on_threads() {
         summary["self_contact_pairs"],
         serde_json::json!(["capsule/lower-upper"])
     );
+    assert_eq!(summary["self_contact_pairs_skipped"], serde_json::json!([]));
     assert_eq!(summary["contact_frames"], 0, "no other body to touch");
     let no_self_summary: Value = serde_json::from_slice(&no_self_out.stdout).expect("JSON");
     assert_eq!(no_self_summary["self_contact"], false);
@@ -829,4 +830,42 @@ fn info_names_the_pairs_it_skips_and_why() {
         .as_str()
         .is_some_and(|r| r.contains("no border vertex")));
     assert_eq!(v["self_contact"]["pairs"].as_array().map(Vec::len), Some(0));
+}
+
+/// `pose --self-contact` on a rig whose only pair cannot carry a partition of unity (Khronos's
+/// RiggedSimple) says why it resolves nothing: the pair and the reason, in text and JSON.
+#[test]
+fn pose_names_the_pairs_the_self_contact_pass_skips() {
+    let rig = samples().join("RiggedSimple/RiggedSimple.glb");
+    if !rig.exists() {
+        println!("{}: not found, skipped", rig.display());
+        return;
+    }
+    let dir = tmp("skipped-pairs");
+    let args = |json: bool| {
+        let mut a = vec![
+            "pose",
+            s(&rig),
+            "--out",
+            dir.to_str().expect("utf8"),
+            "--frames",
+            "2",
+            "--self-contact",
+        ];
+        if json {
+            a.push("--json");
+        }
+        cli(&a)
+    };
+    let text = String::from_utf8(args(false).stdout).expect("utf-8");
+    assert!(
+        text.contains("self-contact: skipped pair Cylinder/") && text.contains("no border vertex"),
+        "{text}"
+    );
+    let v: Value = serde_json::from_slice(&args(true).stdout).expect("JSON summary");
+    assert_eq!(v["self_contact"], true);
+    assert_eq!(v["self_contact_pairs"], serde_json::json!([]));
+    let skipped = v["self_contact_pairs_skipped"].as_array().expect("skipped");
+    assert_eq!(skipped.len(), 1, "{skipped:?}");
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -122,6 +122,8 @@ struct Summary {
     self_contact_skipped: Option<String>,
     /// Joint pairs of the self-contact pass (`body/parent-child`), in the order they run.
     self_contact_pairs: Vec<String>,
+    /// Parent/child pairs the pass left out, one reason each (e.g. no partition of unity).
+    self_contact_pairs_skipped: Vec<String>,
     /// Frames where the self-contact pass resolved at least one fold.
     fold_frames: usize,
     /// The pairs found folding into contact in some frame, in the pass's order.
@@ -357,6 +359,7 @@ fn summarize(
         self_contact: self_run.is_some(),
         self_contact_skipped: job.contact.and_then(|c| c.self_contact_skipped.clone()),
         self_contact_pairs: pairs,
+        self_contact_pairs_skipped: self_run.map_or(Vec::new(), |s| s.pass.skipped().to_vec()),
         fold_frames: stats.iter().filter(|s| !s.folds.is_empty()).count(),
         folds,
         folds_without_direction: stats.iter().map(|s| s.folds_without_direction).sum(),
@@ -431,6 +434,9 @@ fn print_summary(s: &Summary, a: &Args) -> CliResult {
             q.deformation,
             q.factorization
         );
+        for reason in &s.self_contact_pairs_skipped {
+            println!("self-contact: skipped {reason}");
+        }
         if s.folds_without_direction > 0 {
             println!(
                 "self-contact: {} fold(s) skipped without a direction (bones folded 180°)",

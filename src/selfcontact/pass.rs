@@ -6,7 +6,7 @@
 
 use super::direction::{BoneAxes, DirectionSource, Meeting};
 use super::fold::{resolve_detected, FoldError, FoldOutput, FoldParams, FoldPre, FoldTimings};
-use super::regions::{derive_pairs, RegionOptions};
+use super::regions::{derive_pairs_reporting, RegionOptions};
 use super::SelfContactError;
 use crate::mesh::operators::{vertex_normals, NormalWeighting};
 use crate::mesh::WeldedMesh;
@@ -61,6 +61,8 @@ pub struct SelfContactPass {
     rest: Vec<Vec<Point3<f64>>>,
     rest_pose: Pose,
     passes: usize,
+    /// Joint pairs left out when deriving, one reason each ([`derive_pairs_reporting`]).
+    skipped: Vec<String>,
 }
 
 /// Default number of sweeps over the folds per frame (see [`SelfContactPass::with_passes`]).
@@ -106,7 +108,8 @@ impl SelfContactPass {
             )));
         }
         let mut folds = Vec::new();
-        for regions in derive_pairs(rig, welded, options)? {
+        let (pairs, skipped) = derive_pairs_reporting(rig, welded, options)?;
+        for regions in pairs {
             let body = regions.pair.body;
             let axes = BoneAxes::new(rig, &welded[body], &regions);
             let name = regions.pair.name.clone();
@@ -131,6 +134,7 @@ impl SelfContactPass {
             rest: rest.to_vec(),
             rest_pose: rig.pose_at(None, 0.0),
             passes: DEFAULT_FOLD_PASSES,
+            skipped,
         })
     }
 
@@ -146,6 +150,12 @@ impl SelfContactPass {
     pub fn with_passes(mut self, passes: usize) -> Self {
         self.passes = passes.max(1);
         self
+    }
+
+    /// Why parent/child pairs were left out (e.g. a shared region without a border toward
+    /// one side: no partition of unity), one message each.
+    pub fn skipped(&self) -> &[String] {
+        &self.skipped
     }
 
     /// Names of the joint pairs, with their body.
