@@ -23,10 +23,25 @@
 //! | evaluation of an animation, frame by frame | [`frames`] |
 //! | OBJ frames and baked glb | [`output`] |
 //! | the procedural test scenes of `rigs/` | [`scenes`] |
-//! | self-contact of adjacent working regions: regions, partition of unity, direction (Sec. 6) | [`selfcontact`] |
+//! | self-contact of adjacent working regions: regions, partition of unity, direction, crease cut, folds (Sec. 6) | [`selfcontact`] |
 //!
 //! Everything that does not depend on the pose is precomputed once per rig
 //! ([`frames::Precomputed`]); every frame is a pure function of the pose.
+
+/// `AddAssign` for a struct of summed fields (timings, counts), field by field, with a doc
+/// line. The destructuring names every field: a field added to the struct and not to the
+/// list is a compile error, not a sum that silently drops it.
+macro_rules! add_assign_fields {
+    ($doc:literal, $t:ty { $($f:ident),+ $(,)? }) => {
+        impl std::ops::AddAssign for $t {
+            #[doc = $doc]
+            fn add_assign(&mut self, other: Self) {
+                let Self { $($f),+ } = other;
+                $(self.$f += $f;)+
+            }
+        }
+    };
+}
 
 pub mod config;
 pub mod contact;

@@ -247,21 +247,21 @@ pub struct PassOutput {
     pub later_contacts: usize,
 }
 
-impl std::ops::AddAssign for StageTimings {
-    /// Times of several passes or folds, summed stage by stage.
-    fn add_assign(&mut self, b: Self) {
-        self.setup += b.setup;
-        self.intersection += b.intersection;
-        self.mapping += b.mapping;
-        self.zones += b.zones;
-        self.parametrization += b.parametrization;
-        self.directions += b.directions;
-        self.fields += b.fields;
-        self.deformation += b.deformation;
-        self.factorization += b.factorization;
-        self.wall += b.wall;
+add_assign_fields!(
+    "Times of several passes or folds, summed stage by stage.",
+    StageTimings {
+        setup,
+        intersection,
+        mapping,
+        zones,
+        parametrization,
+        directions,
+        fields,
+        deformation,
+        factorization,
+        wall,
     }
-}
+);
 
 impl ContactPass {
     /// Precomputes the pass for bodies given by rest positions and triangles (welded).

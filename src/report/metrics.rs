@@ -1148,16 +1148,16 @@ pub struct TurnedFaces {
     pub buried: usize,
 }
 
-impl std::ops::AddAssign for TurnedFaces {
-    /// Counts of several bodies or frames, summed.
-    fn add_assign(&mut self, o: Self) {
-        self.input_against_skinning += o.input_against_skinning;
-        self.against_input += o.against_input;
-        self.against_skinning += o.against_skinning;
-        self.turned += o.turned;
-        self.buried += o.buried;
+add_assign_fields!(
+    "Counts of several bodies or frames, summed.",
+    TurnedFaces {
+        input_against_skinning,
+        against_input,
+        against_skinning,
+        turned,
+        buried,
     }
-}
+);
 
 impl TurnedFaces {
     /// Turned faces that can be seen from outside the body.

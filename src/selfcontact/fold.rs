@@ -191,18 +191,18 @@ pub struct FoldTimings {
     pub stages: StageTimings,
 }
 
-impl std::ops::AddAssign for FoldTimings {
-    /// Times of several folds, summed step by step.
-    fn add_assign(&mut self, b: Self) {
-        self.detection += b.detection;
-        self.crease += b.crease;
-        self.contact += b.contact;
-        self.directions += b.directions;
-        self.deformation += b.deformation;
-        self.volume += b.volume;
-        self.stages += b.stages;
+add_assign_fields!(
+    "Times of several folds, summed step by step.",
+    FoldTimings {
+        detection,
+        crease,
+        contact,
+        directions,
+        deformation,
+        volume,
+        stages,
     }
-}
+);
 
 impl FoldTimings {
     /// The fold's whole time: the sum of its steps.
