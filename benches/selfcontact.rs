@@ -96,8 +96,8 @@ fn breakdown(name: &str, passes: usize, threads: usize) {
 }
 
 /// The median of `folds` (one joint pair's, one thread) in the columns of the paper's Table 1,
-/// each column's median as a share of the median fold's time (`FoldTimings::stages`: i. holds the detection and the crease cut,
-/// de. the blend and the volume solve). The paper's skinned finger (1967 + 2951 vertices, one
+/// each column's median as a share of the median fold's time (`FoldTimings::stages`: i. holds
+/// the detection and the crease cut, de. the blend and the volume solve). The paper's skinned finger (1967 + 2951 vertices, one
 /// core of an i7-4790K): i. 28, m. 9, c. 1, p. 26, di. 2, g. 20, de. 14 %, s. 27 %, 13.6 ms.
 fn table1_row(pair: &str, folds: &[StageTimings]) {
     let m = median_stages(folds);

@@ -12,6 +12,15 @@ fn samples() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/gltf-samples")
 }
 
+/// The sample `rel`, or `None` (said on stdout: the test skips it).
+fn present_sample(rel: &str) -> Option<PathBuf> {
+    let p = samples().join(rel);
+    if !p.exists() {
+        println!("{}: not found, skipped", p.display());
+    }
+    p.exists().then_some(p)
+}
+
 fn tmp(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("cs-pose-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
@@ -810,11 +819,9 @@ fn info_reports_the_joint_pairs_and_their_direction_source() {
 /// parent side (before, `info` said no body was deformed by a parent and a child joint).
 #[test]
 fn info_names_the_pairs_it_skips_and_why() {
-    let rig = samples().join("RiggedSimple/RiggedSimple.glb");
-    if !rig.exists() {
-        println!("{}: not found, skipped", rig.display());
+    let Some(rig) = present_sample("RiggedSimple/RiggedSimple.glb") else {
         return;
-    }
+    };
     let text = String::from_utf8(cli(&["info", s(&rig)]).stdout).expect("utf-8");
     assert!(
         text.contains("no usable joint pair")
@@ -836,11 +843,9 @@ fn info_names_the_pairs_it_skips_and_why() {
 /// RiggedSimple) says why it resolves nothing: the pair and the reason, in text and JSON.
 #[test]
 fn pose_names_the_pairs_the_self_contact_pass_skips() {
-    let rig = samples().join("RiggedSimple/RiggedSimple.glb");
-    if !rig.exists() {
-        println!("{}: not found, skipped", rig.display());
+    let Some(rig) = present_sample("RiggedSimple/RiggedSimple.glb") else {
         return;
-    }
+    };
     let dir = tmp("skipped-pairs");
     let args = |json: bool| {
         let mut a = vec![

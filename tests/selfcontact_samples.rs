@@ -14,10 +14,14 @@ use contact_skin::selfcontact::RegionOptions;
 use contact_skin::skinning::Method;
 use std::path::Path;
 
+/// The sample `rel` of `../shared/gltf-samples/`, or `None` (said on stdout: the test skips it).
 fn sample(rel: &str) -> Option<std::path::PathBuf> {
     let p = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../shared/gltf-samples")
         .join(rel);
+    if !p.exists() {
+        println!("{rel}: not found, skipped");
+    }
     p.exists().then_some(p)
 }
 
@@ -155,7 +159,6 @@ fn real_characters_never_get_worse() {
         "SimpleSkin/SimpleSkin.gltf",
     ] {
         let Some(path) = sample(rel) else {
-            println!("{rel}: not found, skipped");
             continue;
         };
         let s = run_sample(rel, &path, FoldParams::default());
@@ -178,14 +181,13 @@ fn real_characters_never_get_worse() {
 /// CesiumMan with the object pass's extent floor (`κ = 3`), which spreads a fold whose
 /// intersection runs along the body over a large extent: before the amplitude faded across the
 /// crease, frame 5 got bulges of 14 to 42 edge lengths from zones of a few vertices on their
-/// regions' borders, which `STEEPEST_BULGE` refused (2 folds; `bulges_higher_than_their_band_
-/// are_refused` in `tests/selfcontact.rs` now exercises the rule). Measured now: no fold
-/// refused, 9.8 edge lengths at most, volume exact.
+/// regions' borders, which `STEEPEST_BULGE` refused (2 folds; the rule is now exercised by
+/// `bulges_higher_than_their_band_are_refused` in `tests/selfcontact.rs`). Measured now: no
+/// fold refused, 9.8 edge lengths at most, volume exact.
 #[test]
 fn cesium_man_with_the_object_pass_extent_floor_stays_bounded() {
     let rel = "CesiumMan/CesiumMan.glb";
     let Some(path) = sample(rel) else {
-        println!("{rel}: not found, skipped");
         return;
     };
     let mut params = FoldParams::default();
@@ -252,7 +254,6 @@ fn curled_hand(rig: &rig::Rig, fingers: &[&str], angles: [f64; 3]) -> rig::Pose 
 fn a_tracked_hand_curls_into_contact() {
     let rel = "WebXRGenericHand/left.glb";
     let Some(path) = sample(rel) else {
-        println!("{rel}: not found, skipped");
         return;
     };
     let Prepared {

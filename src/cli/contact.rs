@@ -240,7 +240,8 @@ pub struct FrameDiagnostics {
     pub timings_s: StageTimings,
     /// Folds resolved by the self-contact pass, in the order they ran (empty when it is off).
     pub folds: Vec<FoldDiagnostics>,
-    /// Joint pairs skipped by the self-contact pass for want of a direction (full 180° fold).
+    /// Joint pairs skipped by the self-contact pass for want of a direction (bones folded 180°,
+    /// or no common relative motion where the parts meet).
     pub folds_without_direction: usize,
     /// Folds left unresolved because no bulge could keep the volume without a spike.
     pub folds_unbalanced: usize,

@@ -80,6 +80,9 @@ struct SelfPairInfo {
     direction: Option<[f64; 3]>,
     /// Where the direction comes from: `"skeleton"`, `"fixed"` or `"motion"`.
     direction_source: &'static str,
+    /// The same, for the text report.
+    #[serde(skip)]
+    source: DirectionSource,
     /// The joint's size (diagonal of `R`'s rest bounding box).
     joint_size: f64,
     /// `φ̄` of this pair in scene units.
@@ -255,7 +258,7 @@ fn describe_self_contact(
                 .directions
                 .iter()
                 .find(|(n, _)| *n == p.name)
-                .map(|(_, d)| *d);
+                .map_or(DirectionSource::Skeleton, |(_, d)| *d);
             SelfPairInfo {
                 joint_size,
                 extent: f.joint_extent.map_or(f.deform.extent, |k| k * joint_size),
@@ -266,8 +269,9 @@ fn describe_self_contact(
                 child: node(p.child_joint),
                 shared: r.shared.len(),
                 reason: r.reason.clone(),
-                direction: source.and_then(|d| d.fixed()),
-                direction_source: source.unwrap_or(DirectionSource::Skeleton).label(),
+                direction: source.fixed(),
+                direction_source: source.label(),
+                source,
             }
         })
         .collect();
@@ -324,10 +328,10 @@ fn print_self_contact(s: &SelfContactInfo) {
         println!("    skipped {reason}");
     }
     for p in &s.pairs {
-        let direction = match (p.direction, p.direction_source) {
-            (Some(d), _) => format!("direction {d:?} (configured)"),
-            (None, "motion") => "direction from the relative motion of the parts".into(),
-            _ => "direction from the skeleton".into(),
+        let direction = match p.source {
+            DirectionSource::Fixed(d) => format!("direction {:?} (configured)", [d.x, d.y, d.z]),
+            DirectionSource::Motion => "direction from the relative motion of the parts".into(),
+            DirectionSource::Skeleton => "direction from the skeleton".into(),
         };
         println!(
             "    pair '{}' (body {} '{}', joints '{}' -> '{}'): shared region {} vertices, joint size {:.6}, extent {:.6}, {direction}",

@@ -128,7 +128,8 @@ struct Summary {
     fold_frames: usize,
     /// The pairs found folding into contact in some frame, in the pass's order.
     folds: Vec<String>,
-    /// Joint pairs skipped for want of a direction (full 180° fold), summed over the frames.
+    /// Joint pairs skipped for want of a direction (bones folded 180°, or no common relative
+    /// motion where the parts meet), summed over the frames.
     folds_without_direction: usize,
     /// Folds left unresolved because no bulge could keep the volume without a spike, summed
     /// over the frames.
@@ -439,7 +440,7 @@ fn print_summary(s: &Summary, a: &Args) -> CliResult {
         }
         if s.folds_without_direction > 0 {
             println!(
-                "self-contact: {} fold(s) skipped without a direction (bones folded 180°)",
+                "self-contact: {} fold(s) skipped without a direction (bones folded 180°, or no common relative motion)",
                 s.folds_without_direction
             );
         }

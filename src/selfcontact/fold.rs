@@ -482,12 +482,9 @@ pub fn resolve_detected(
     }))
 }
 
-/// A fold's time in the columns of the paper's Table 1. The paper does not say where Sec. 6's
-/// own steps go in its skinned finger row; here i. is the detection, the crease cut and the
-/// intersection of the truncated parts; m. and c. the contact's mapping and zones; di. the zones' extension to the
-/// crease, `σ` and both regions' direction fields; p., g. and s. both regions' parametrization,
-/// diffusions and numeric factorizations; de. both regions' profiles and bulge map, the blend
-/// and the volume solve. `wall` is the fold's whole time ([`FoldTimings::total`]).
+/// A fold's time in the columns of the paper's Table 1 ([`FoldTimings::stages`] says what each
+/// holds: the paper does not say where Sec. 6's own steps go in its skinned finger row).
+/// `wall` is the fold's whole time ([`FoldTimings::total`]).
 fn table1_stages(
     fold: &FoldTimings,
     contact: &crate::contact::ContactTimings,
