@@ -18,11 +18,12 @@ use crate::contact::{
 };
 use crate::deform::region::{bulge_height, shape_region};
 use crate::deform::volume::RootKind;
-use crate::deform::{DeformParams, DeformStats, RegionFrame, WorkingRegion};
+use crate::deform::{DeformParams, DeformStats, RegionDeformation, RegionFrame, WorkingRegion};
 use crate::heat::{Boundary, EdgePoint};
 use crate::intersect::{Intersections, MeshIndex};
 use crate::pass::StageTimings;
 use nalgebra::{Point3, Vector3};
+use std::collections::HashMap;
 use std::time::Instant;
 
 /// Why a fold could not be resolved in a frame.
@@ -387,47 +388,22 @@ pub fn resolve_detected(
         detection: detection.seconds,
         ..FoldTimings::default()
     };
-    let clock = Instant::now();
-    // Seconds since the previous lap.
-    let lap = |since: &mut f64| {
-        let now = clock.elapsed().as_secs_f64();
-        let step = now - *since;
-        *since = now;
-        step
-    };
-    let mut mark = 0.0;
-    let r = &pre.regions;
+    let mut laps = Laps::start();
     let mut winding = pre.winding.clone();
     let inside = winding
         .refit(positions, triangles)
         .then(|| InsideTwice::new(std::borrow::Cow::Borrowed(&winding), positions, triangles));
     let tree = inside.as_ref();
-    let intersecting = match tree {
-        Some(tree) => with_buried(pre, positions, normals, tree, &detection.vertices),
-        None => detection.vertices.clone(),
+    let geometry = FrameGeometry {
+        positions,
+        normals,
+        triangles,
+        direction,
     };
-    let intersecting = &intersecting;
-    let crease = crease_cut(
-        &CreaseInput {
-            positions,
-            normals,
-            triangles,
-            faces: &pre.faces,
-            w1: &r.w1,
-            w2: &r.w2,
-            beta: &r.beta,
-            direction,
-            intersecting,
-            topology: Some(&pre.topology),
-        },
-        &params.crease,
-    )?;
-    let labels = cut_labels(triangles, &pre.faces, &crease.on_w1);
-    let truncated =
-        MeshIndex::self_contact_parts_within(Some(&pre.parts_tree), positions, triangles, &labels)?;
-    timings.crease = lap(&mut mark);
+    let (crease, truncated) = cut_the_crease(pre, detection, &geometry, tree, params)?;
+    timings.crease = laps.next();
     let contact = truncated_contact(&truncated, positions, normals, direction, params, tree)?;
-    timings.contact = lap(&mut mark);
+    timings.contact = laps.next();
     let Some(mut contact) = contact else {
         return Ok(None);
     };
@@ -435,40 +411,15 @@ pub fn resolve_detected(
         zones_to_the_crease(pre, &crease.on_w1, positions, normals, tree, &mut contact);
     }
     let sigma = sigma_field(pre, positions, &contact)?;
-    let field: Vec<Vector3<f64>> = sigma.iter().map(|s| direction * *s).collect();
-    timings.directions = lap(&mut mark);
-    let sides: Vec<&ContactSide> = contact.sides.iter().collect();
-    let shared: Vec<bool> = r.w1.iter().zip(&r.w2).map(|(a, b)| *a && *b).collect();
-    let frame = RegionFrame {
-        positions,
-        normals,
-        triangles,
-        contacts: &sides,
-        painted: None,
-        direction_field: Some(&field),
-        free_border: Some(&shared),
-    };
-    let deform = params.deform_at(pre);
-    // The two regions are independent until the blend.
-    let (s1, s2) = rayon::join(
-        || shape_region(&pre.w1, &frame, &deform),
-        || shape_region(&pre.w2, &frame, &deform),
-    );
-    let (s1, s2) = (s1?, s2?);
-    timings.deformation = lap(&mut mark);
+    timings.directions = laps.next();
+    let [s1, s2] = deform_both(pre, &geometry, &contact, &sigma, params)?;
+    timings.deformation = laps.next();
     let blended = blend_and_balance(pre, triangles, positions, [&s1, &s2], params.deform.gamma)?;
-    timings.volume = lap(&mut mark);
+    timings.volume = laps.next();
     let gamma_h = params.deform.gamma * blended.h;
-    let own = |sh: &crate::deform::RegionDeformation| -> Vec<Point3<f64>> {
-        sh.base
-            .iter()
-            .zip(&sh.bulge_unit)
-            .map(|(p, q)| p + q * gamma_h)
-            .collect()
-    };
     timings.stages = table1_stages(&timings, &contact.timings, [&s1.timings, &s2.timings]);
     Ok(Some(FoldOutput {
-        region_positions: [own(&s1), own(&s2)],
+        region_positions: [own_positions(&s1, gamma_h), own_positions(&s2, gamma_h)],
         positions: blended.positions,
         crease,
         contact,
@@ -480,6 +431,118 @@ pub fn resolve_detected(
         unbalanced: blended.unbalanced,
         timings,
     }))
+}
+
+/// The posed body of one frame, as the fold's steps read it.
+struct FrameGeometry<'a> {
+    positions: &'a [Point3<f64>],
+    normals: &'a [Vector3<f64>],
+    triangles: &'a [[u32; 3]],
+    /// `d̂_12`, W1's outward direction.
+    direction: Vector3<f64>,
+}
+
+/// Seconds between successive calls of [`Laps::next`].
+struct Laps {
+    clock: Instant,
+    mark: f64,
+}
+
+impl Laps {
+    fn start() -> Self {
+        Self {
+            clock: Instant::now(),
+            mark: 0.0,
+        }
+    }
+
+    /// Seconds since the previous lap (or the start).
+    fn next(&mut self) -> f64 {
+        let now = self.clock.elapsed().as_secs_f64();
+        let step = now - self.mark;
+        self.mark = now;
+        step
+    }
+}
+
+/// Sec. 6 "Crease detection & Partitioning": the min-cut of `R` (intersection terms on the
+/// intersecting vertices and, when the body is closed, those of `R` buried in the other
+/// part), and the two truncated parts it leaves, indexed for Sec. 4.2-4.4.
+fn cut_the_crease(
+    pre: &FoldPre,
+    detection: &Detection,
+    g: &FrameGeometry,
+    tree: Option<&InsideTwice>,
+    params: &FoldParams,
+) -> Result<(Crease, [MeshIndex; 2]), FoldError> {
+    let r = &pre.regions;
+    let intersecting = match tree {
+        Some(tree) => with_buried(pre, g.positions, g.normals, tree, &detection.vertices),
+        None => detection.vertices.clone(),
+    };
+    let crease = crease_cut(
+        &CreaseInput {
+            positions: g.positions,
+            normals: g.normals,
+            triangles: g.triangles,
+            faces: &pre.faces,
+            w1: &r.w1,
+            w2: &r.w2,
+            beta: &r.beta,
+            direction: g.direction,
+            intersecting: &intersecting,
+            topology: Some(&pre.topology),
+        },
+        &params.crease,
+    )?;
+    let labels = cut_labels(g.triangles, &pre.faces, &crease.on_w1);
+    let truncated = MeshIndex::self_contact_parts_within(
+        Some(&pre.parts_tree),
+        g.positions,
+        g.triangles,
+        &labels,
+    )?;
+    Ok((crease, truncated))
+}
+
+/// Sec. 5 on both working regions with the mapping field `σ d̂` (Sec. 6 "Consistent mapping
+/// direction"), `R`'s vertices free to move: the two are independent until the blend.
+fn deform_both(
+    pre: &FoldPre,
+    g: &FrameGeometry,
+    contact: &Contact,
+    sigma: &[f64],
+    params: &FoldParams,
+) -> Result<[RegionDeformation; 2], FoldError> {
+    let r = &pre.regions;
+    let field: Vec<Vector3<f64>> = sigma.iter().map(|s| g.direction * *s).collect();
+    let sides: Vec<&ContactSide> = contact.sides.iter().collect();
+    let shared: Vec<bool> = r.w1.iter().zip(&r.w2).map(|(a, b)| *a && *b).collect();
+    let frame = RegionFrame {
+        positions: g.positions,
+        normals: g.normals,
+        triangles: g.triangles,
+        contacts: &sides,
+        painted: None,
+        direction_field: Some(&field),
+        free_border: Some(&shared),
+    };
+    let deform = params.deform_at(pre);
+    let (s1, s2) = rayon::join(
+        || shape_region(&pre.w1, &frame, &deform),
+        || shape_region(&pre.w2, &frame, &deform),
+    );
+    Ok([s1?, s2?])
+}
+
+/// One region's own result before the blend: `P + γ h_v Q`.
+fn own_positions(region: &RegionDeformation, gamma_h: f64) -> Vec<Point3<f64>> {
+    region
+        .base
+        .iter()
+        .zip(&region.bulge_unit)
+        .map(|(p, q)| p + q * gamma_h)
+        .collect()
 }
 
 /// A fold's time in the columns of the paper's Table 1 ([`FoldTimings::stages`] says what each
@@ -788,17 +851,7 @@ fn sigma_field(
     contact: &Contact,
 ) -> Result<Vec<f64>, FoldError> {
     let r = &pre.regions;
-    let n = positions.len();
-    let zone_sign = |v: usize| {
-        if contact.sides[0].zone.inside[v] {
-            Some(1.0)
-        } else if contact.sides[1].zone.inside[v] {
-            Some(-1.0)
-        } else {
-            None
-        }
-    };
-    let mut sigma: Vec<f64> = (0..n)
+    let mut sigma: Vec<f64> = (0..positions.len())
         .map(|v| match (r.w1[v], r.w2[v]) {
             (true, false) => 1.0,
             (false, true) => -1.0,
@@ -809,16 +862,86 @@ fn sigma_field(
     if region.vertex_count() == 0 {
         return Ok(sigma);
     }
+    let (boundary, values) = sigma_boundary(pre, contact);
+    let local = region.gather(positions);
+    let mut problem = pre.shared.solver.problem(&local, &boundary)?;
+    let solved = problem.harmonic(&values)?;
+    for (l, &v) in region.vertices.iter().enumerate() {
+        let v = v as usize;
+        sigma[v] = match zone_sign(contact, v) {
+            Some(s) => s,
+            None if problem.unreached()[l] => 0.0,
+            None => solved[l].clamp(-1.0, 1.0),
+        };
+    }
+    Ok(sigma)
+}
+
+/// `σ`'s Dirichlet value at a vertex of a contact zone: +1 in `C_1`, -1 in `C_2`.
+fn zone_sign(contact: &Contact, v: usize) -> Option<f64> {
+    if contact.sides[0].zone.inside[v] {
+        Some(1.0)
+    } else if contact.sides[1].zone.inside[v] {
+        Some(-1.0)
+    } else {
+        None
+    }
+}
+
+/// `σ`'s boundary on the shared region and its values (points first, then vertices): the
+/// zones' exact points on `R`'s edges (every edge leaving a zone gets one, at the zone vertex
+/// if the contact has none on it) and `R`'s vertices bordering one side only.
+fn sigma_boundary(pre: &FoldPre, contact: &Contact) -> (Boundary, Vec<f64>) {
+    let region = &pre.shared.solver.region;
     let inside: Vec<bool> = region
         .vertices
         .iter()
-        .map(|&v| zone_sign(v as usize).is_some())
+        .map(|&v| zone_sign(contact, v as usize).is_some())
         .collect();
-    // Exact points of the zones on R's edges, with the sign of their zone; every edge leaving
-    // the zones gets one (at the zone vertex if the contact has none on it).
-    let mut exact: std::collections::HashMap<u32, (f64, f64)> = std::collections::HashMap::new();
-    for (k, side) in contact.sides.iter().enumerate() {
-        let sign = if k == 0 { 1.0 } else { -1.0 };
+    let exact = zone_exact_points(pre, contact);
+    let mut points = Vec::new();
+    let mut values = Vec::new();
+    for (e, &[a, b]) in region.edges.iter().enumerate() {
+        if inside[a as usize] == inside[b as usize] {
+            continue;
+        }
+        let zone_vertex = if inside[a as usize] { a } else { b };
+        let (alpha, sign) = exact.get(&(e as u32)).copied().unwrap_or_else(|| {
+            let s = zone_sign(contact, region.vertices[zone_vertex as usize] as usize);
+            (if zone_vertex == a { 0.0 } else { 1.0 }, s.unwrap_or(0.0))
+        });
+        points.push(EdgePoint {
+            edge: e as u32,
+            alpha,
+        });
+        values.push(sign);
+    }
+    let mut fixed = Vec::new();
+    for (l, &v) in region.vertices.iter().enumerate() {
+        let side = match pre.toward[v as usize] {
+            (true, false) => 1.0,
+            (false, true) => -1.0,
+            _ => continue,
+        };
+        if !inside[l] {
+            fixed.push(l as u32);
+            values.push(side);
+        }
+    }
+    let boundary = Boundary {
+        inside,
+        points,
+        vertices: fixed,
+    };
+    (boundary, values)
+}
+
+/// The zones' exact boundary points on the shared region's edges: per local edge, the
+/// position along it from its first end and the sign of the zone.
+fn zone_exact_points(pre: &FoldPre, contact: &Contact) -> HashMap<u32, (f64, f64)> {
+    let region = &pre.shared.solver.region;
+    let mut exact = HashMap::new();
+    for (side, sign) in contact.sides.iter().zip([1.0, -1.0]) {
         for bp in &side.zone.boundary {
             let (li, lj) = (
                 pre.shared.local_of[bp.inside as usize],
@@ -837,55 +960,5 @@ fn sigma_field(
             }
         }
     }
-    let mut points = Vec::new();
-    let mut values = Vec::new();
-    for (e, &[a, b]) in region.edges.iter().enumerate() {
-        if inside[a as usize] == inside[b as usize] {
-            continue;
-        }
-        let zone_vertex = if inside[a as usize] { a } else { b };
-        let (alpha, sign) = exact.get(&(e as u32)).copied().unwrap_or_else(|| {
-            let s = zone_sign(region.vertices[zone_vertex as usize] as usize).unwrap_or(0.0);
-            (if zone_vertex == a { 0.0 } else { 1.0 }, s)
-        });
-        points.push(EdgePoint {
-            edge: e as u32,
-            alpha,
-        });
-        values.push(sign);
-    }
-    let mut fixed = Vec::new();
-    for (l, &v) in region.vertices.iter().enumerate() {
-        if inside[l] {
-            continue;
-        }
-        match pre.toward[v as usize] {
-            (true, false) => {
-                fixed.push(l as u32);
-                values.push(1.0);
-            }
-            (false, true) => {
-                fixed.push(l as u32);
-                values.push(-1.0);
-            }
-            _ => {}
-        }
-    }
-    let boundary = Boundary {
-        inside: inside.clone(),
-        points,
-        vertices: fixed,
-    };
-    let local = region.gather(positions);
-    let mut problem = pre.shared.solver.problem(&local, &boundary)?;
-    let solved = problem.harmonic(&values)?;
-    for (l, &v) in region.vertices.iter().enumerate() {
-        let v = v as usize;
-        sigma[v] = match zone_sign(v) {
-            Some(s) => s,
-            None if problem.unreached()[l] => 0.0,
-            None => solved[l].clamp(-1.0, 1.0),
-        };
-    }
-    Ok(sigma)
+    exact
 }
