@@ -87,41 +87,7 @@ pub fn partition_of_unity_with_stats(
         ..Default::default()
     };
 
-    // Dirichlet side of each vertex of R, from its neighbors outside R.
-    let mut fixed: Vec<Option<f64>> = vec![None; n];
-    for v in (0..n).filter(|&v| in_r[v]) {
-        let near1 = adjacency[v]
-            .iter()
-            .any(|&u| w1[u as usize] && !w2[u as usize]);
-        let near2 = adjacency[v]
-            .iter()
-            .any(|&u| w2[u as usize] && !w1[u as usize]);
-        match (near1, near2) {
-            (true, false) => {
-                fixed[v] = Some(1.0);
-                stats.dirichlet_one += 1;
-            }
-            (false, true) => {
-                fixed[v] = Some(0.0);
-                stats.dirichlet_zero += 1;
-            }
-            (true, true) => stats.touching_both += 1,
-            (false, false) => {}
-        }
-    }
-    for (count, missing) in [
-        (stats.dirichlet_one, BorderSide::W1),
-        (stats.dirichlet_zero, BorderSide::W2),
-    ] {
-        if count == 0 {
-            return Err(SelfContactError::DegenerateSharedRegion {
-                pair: UNNAMED_PAIR.to_owned(),
-                shared: stats.shared,
-                missing,
-            });
-        }
-    }
-
+    let fixed = dirichlet_sides(&adjacency, w1, w2, &mut stats)?;
     let mut beta: Vec<Option<f64>> = (0..n)
         .map(|v| match (w1[v], w2[v]) {
             (true, false) => Some(1.0),
@@ -148,10 +114,64 @@ pub fn partition_of_unity_with_stats(
         }
     }
 
-    // Orphans: vertices of R on no face of R take the mean of their assigned neighbors.
-    let orphans: Vec<usize> = (0..n).filter(|&v| beta[v].is_none()).collect();
-    stats.orphans = orphans.len();
-    let mut pending = orphans;
+    stats.orphans = fill_orphans(&adjacency, &mut beta);
+    let beta = beta
+        .into_iter()
+        .map(|b| b.unwrap_or(0.5).clamp(0.0, 1.0))
+        .collect();
+    Ok((beta, stats))
+}
+
+/// The Dirichlet side of each vertex of `R` from its neighbours outside `R`: 1 next to
+/// `W1 \ R` only, 0 next to `W2 \ R` only, free otherwise. A shared region without a border
+/// toward one side has no partition of unity.
+fn dirichlet_sides(
+    adjacency: &[Vec<u32>],
+    w1: &[bool],
+    w2: &[bool],
+    stats: &mut PartitionStats,
+) -> Result<Vec<Option<f64>>, SelfContactError> {
+    let n = adjacency.len();
+    let mut fixed: Vec<Option<f64>> = vec![None; n];
+    for v in (0..n).filter(|&v| w1[v] && w2[v]) {
+        let near = |a: &[bool], b: &[bool]| {
+            adjacency[v]
+                .iter()
+                .any(|&u| a[u as usize] && !b[u as usize])
+        };
+        match (near(w1, w2), near(w2, w1)) {
+            (true, false) => {
+                fixed[v] = Some(1.0);
+                stats.dirichlet_one += 1;
+            }
+            (false, true) => {
+                fixed[v] = Some(0.0);
+                stats.dirichlet_zero += 1;
+            }
+            (true, true) => stats.touching_both += 1,
+            (false, false) => {}
+        }
+    }
+    for (count, missing) in [
+        (stats.dirichlet_one, BorderSide::W1),
+        (stats.dirichlet_zero, BorderSide::W2),
+    ] {
+        if count == 0 {
+            return Err(SelfContactError::DegenerateSharedRegion {
+                pair: UNNAMED_PAIR.to_owned(),
+                shared: stats.shared,
+                missing,
+            });
+        }
+    }
+    Ok(fixed)
+}
+
+/// Orphans (vertices of `R` on no face of `R`) take the mean of their assigned neighbours,
+/// ring by ring; those cut off from every assigned vertex take 0.5. Returns their number.
+fn fill_orphans(adjacency: &[Vec<u32>], beta: &mut [Option<f64>]) -> usize {
+    let mut pending: Vec<usize> = (0..beta.len()).filter(|&v| beta[v].is_none()).collect();
+    let orphans = pending.len();
     while !pending.is_empty() {
         let before = pending.len();
         let mut still = Vec::new();
@@ -175,11 +195,7 @@ pub fn partition_of_unity_with_stats(
         }
         pending = still;
     }
-    let beta = beta
-        .into_iter()
-        .map(|b| b.unwrap_or(0.5).clamp(0.0, 1.0))
-        .collect();
-    Ok((beta, stats))
+    orphans
 }
 
 /// Harmonic interpolation of the Dirichlet values over `region` (cotangent stiffness at the
