@@ -317,23 +317,8 @@ fn build_pair(
     };
     let below = tree.below(rig, skin, c);
     let n = mesh.vertex_count();
-    let t = options.threshold;
-    let mut seed1 = vec![false; n];
-    let mut seed2 = vec![false; n];
-    for (v, &rep) in mesh.representative.iter().enumerate() {
-        let (mut on_parent, mut on_child) = (0.0, 0.0);
-        for (j, w) in body.weights.row(rep as usize) {
-            if j == p {
-                on_parent += w;
-            }
-            if below.get(j).copied().unwrap_or(false) {
-                on_child += w;
-            }
-        }
-        seed1[v] = on_parent > t;
-        seed2[v] = on_child > t;
-    }
-    let (n1, n2) = (count(&seed1), count(&seed2));
+    let (seed1, seed2) = weight_seeds(body, mesh, p, &below, options.threshold);
+    let seeds = [count(&seed1), count(&seed2)];
     let adjacency = vertex_adjacency(n, &mesh.triangles)?;
     let grown1 = grow(seed1, &adjacency, options.grow_rings);
     let grown2 = grow(seed2, &adjacency, options.grow_rings);
@@ -346,50 +331,10 @@ fn build_pair(
     if shared.is_empty() {
         return Ok(None);
     }
-    let rest: Vec<Point3<f64>> = mesh
-        .representative
-        .iter()
-        .map(|&r| body.positions.get(r as usize).copied())
-        .collect::<Option<_>>()
-        .ok_or_else(|| {
-            SelfContactError::InconsistentInput(format!(
-                "body {}: positions do not match the welded mesh",
-                body.name
-            ))
-        })?;
+    let rest = welded_rest(body, mesh)?;
     let (beta, partition) = partition_of_unity_with_stats(&rest, &mesh.triangles, &w1, &w2)
         .map_err(|e| e.for_pair(&pair.name))?;
-    let reason = format!(
-        "{name}: W1 = weight on {pj} > {t} ({n1} vertices), W2 = weight on {cj} and its \
-         descendants{from} > {t} ({n2} vertices), each grown {rings} rings: W1 {v1} vertices / {f1} \
-         faces, W2 {v2} vertices / {f2} faces; R {r} vertices / {rf} faces in {comp} part(s), \
-         border beta = 1 on {d1}, beta = 0 on {d0}, {both} next to both (Neumann), {orph} \
-         orphan(s); harmonic range before clamping [{lo:.3e}, {hi:.3e}]",
-        name = pair.name,
-        from = match tree.source {
-            TreeSource::Hierarchy => "",
-            TreeSource::HandJointNames => {
-                " (joint nodes not nested: the tree of a tracked hand's joint names)"
-            }
-        },
-        pj = node_name(rig, parent),
-        cj = node_name(rig, child),
-        rings = options.grow_rings,
-        v1 = count(&w1),
-        f1 = w1_faces.len(),
-        v2 = count(&w2),
-        f2 = w2_faces.len(),
-        r = shared.len(),
-        rf = partition.faces,
-        comp = partition.components,
-        d1 = partition.dirichlet_one,
-        d0 = partition.dirichlet_zero,
-        both = partition.touching_both,
-        orph = partition.orphans,
-        lo = partition.raw_min,
-        hi = partition.raw_max,
-    );
-    Ok(Some(PairRegions {
+    let mut regions = PairRegions {
         pair,
         w1_faces,
         w2_faces,
@@ -398,8 +343,97 @@ fn build_pair(
         shared,
         beta,
         partition,
-        reason,
-    }))
+        reason: String::new(),
+    };
+    regions.reason = derivation(rig, tree.source, options, seeds, &regions);
+    Ok(Some(regions))
+}
+
+/// The seeds of W1 and W2: vertices whose weight on the parent joint (skin index `p`), and on
+/// the joints `below` the child, exceeds `threshold`.
+fn weight_seeds(
+    body: &Body,
+    mesh: &WeldedMesh,
+    p: usize,
+    below: &[bool],
+    threshold: f64,
+) -> (Vec<bool>, Vec<bool>) {
+    let n = mesh.vertex_count();
+    let mut seed1 = vec![false; n];
+    let mut seed2 = vec![false; n];
+    for (v, &rep) in mesh.representative.iter().enumerate() {
+        let (mut on_parent, mut on_child) = (0.0, 0.0);
+        for (j, w) in body.weights.row(rep as usize) {
+            if j == p {
+                on_parent += w;
+            }
+            if below.get(j).copied().unwrap_or(false) {
+                on_child += w;
+            }
+        }
+        seed1[v] = on_parent > threshold;
+        seed2[v] = on_child > threshold;
+    }
+    (seed1, seed2)
+}
+
+/// The rest positions of the welded vertices.
+fn welded_rest(body: &Body, mesh: &WeldedMesh) -> Result<Vec<Point3<f64>>, SelfContactError> {
+    mesh.representative
+        .iter()
+        .map(|&r| body.positions.get(r as usize).copied())
+        .collect::<Option<_>>()
+        .ok_or_else(|| {
+            SelfContactError::InconsistentInput(format!(
+                "body {}: positions do not match the welded mesh",
+                body.name
+            ))
+        })
+}
+
+/// Why a pair's regions are what they are (`contact-skin info`): the seeds' rule and sizes
+/// (`seeds`: W1's and W2's), the grown regions, `R` and its partition of unity.
+fn derivation(
+    rig: &Rig,
+    source: TreeSource,
+    options: &RegionOptions,
+    seeds: [usize; 2],
+    r: &PairRegions,
+) -> String {
+    let t = options.threshold;
+    let partition = &r.partition;
+    format!(
+        "{name}: W1 = weight on {pj} > {t} ({n1} vertices), W2 = weight on {cj} and its \
+         descendants{from} > {t} ({n2} vertices), each grown {rings} rings: W1 {v1} vertices / {f1} \
+         faces, W2 {v2} vertices / {f2} faces; R {rv} vertices / {rf} faces in {comp} part(s), \
+         border beta = 1 on {d1}, beta = 0 on {d0}, {both} next to both (Neumann), {orph} \
+         orphan(s); harmonic range before clamping [{lo:.3e}, {hi:.3e}]",
+        name = r.pair.name,
+        from = match source {
+            TreeSource::Hierarchy => "",
+            TreeSource::HandJointNames => {
+                " (joint nodes not nested: the tree of a tracked hand's joint names)"
+            }
+        },
+        pj = node_name(rig, r.pair.parent_joint),
+        cj = node_name(rig, r.pair.child_joint),
+        n1 = seeds[0],
+        n2 = seeds[1],
+        rings = options.grow_rings,
+        v1 = count(&r.w1),
+        f1 = r.w1_faces.len(),
+        v2 = count(&r.w2),
+        f2 = r.w2_faces.len(),
+        rv = r.shared.len(),
+        rf = partition.faces,
+        comp = partition.components,
+        d1 = partition.dirichlet_one,
+        d0 = partition.dirichlet_zero,
+        both = partition.touching_both,
+        orph = partition.orphans,
+        lo = partition.raw_min,
+        hi = partition.raw_max,
+    )
 }
 
 fn count(flags: &[bool]) -> usize {
