@@ -197,86 +197,135 @@ fn resolve(
         IntersectionRegion::inside(&ints, Side::A, a.mesh)?,
         IntersectionRegion::inside(&ints, Side::B, b.mesh)?,
     ];
-    let masks;
-    let (a, b) = match surfaces {
+    let masks = match surfaces {
         Surfaces::PartsOfOneMesh(given) => {
-            let built;
-            let inside = match given {
-                Some(t) => t,
-                None => {
-                    built = InsideTwice::build(a.mesh.positions(), a.mesh.triangles());
-                    &built
-                }
-            };
-            let h = inside.h;
-            inside_by_winding([a, b], &ints, inside, &mut regions);
-            masks = [
-                near_region(a.mesh, &regions[0], HIT_REACH * h),
-                near_region(b.mesh, &regions[1], HIT_REACH * h),
-            ];
-            (
-                SideFrame {
-                    hittable: Some(&masks[0]),
-                    ..a
-                },
-                SideFrame {
-                    hittable: Some(&masks[1]),
-                    ..b
-                },
-            )
+            Some(parts_of_one_mesh([a, b], &ints, given, &mut regions))
         }
-        Surfaces::Separate => (a, b),
+        Surfaces::Separate => None,
+    };
+    let (a, b) = match &masks {
+        Some([m0, m1]) => (
+            SideFrame {
+                hittable: Some(m0),
+                ..a
+            },
+            SideFrame {
+                hittable: Some(m1),
+                ..b
+            },
+        ),
+        None => (a, b),
     };
     let t_int = start.elapsed().as_secs_f64();
     let Some(dir_a) = pair_direction(a, b, &regions, params)? else {
         return Ok(None);
     };
     let reach = 2.0 * reach_of(a.mesh, b.mesh);
+    let stiffness_a = params.stiffness_a.clamp(0.0, 1.0);
     let frames = [
         zones::SurfaceFrame {
             cast: -dir_a,
-            stiffness: params.stiffness_a.clamp(0.0, 1.0),
+            stiffness: stiffness_a,
         },
         zones::SurfaceFrame {
             cast: dir_a,
-            stiffness: 1.0 - params.stiffness_a.clamp(0.0, 1.0),
+            stiffness: 1.0 - stiffness_a,
         },
     ];
-    let sides = [(a, b, Side::A), (b, a, Side::B)];
-    let mapped: Vec<MappingRegion> = (0..2)
-        .map(|k| {
-            let (own, other, _) = sides[k];
-            mapping::mapping_region(
-                own,
-                other,
-                &regions[k].inside,
-                &regions[1 - k],
-                &frames[k].cast,
-                reach,
-            )
-        })
-        .collect();
+    let mapped = mapping_regions([a, b], &regions, &frames, reach);
     let t_map = start.elapsed().as_secs_f64();
-    let hits: Vec<zones::EdgeHits> = sides
-        .iter()
-        .map(|&(_, other, s)| zones::edge_hits(&ints, s, other))
-        .collect();
-    let inputs: Vec<zones::SideInput> = (0..2)
-        .map(|k| zones::SideInput {
-            own: sides[k].0,
-            other: sides[k].1,
-            region: &mapped[k],
-            hits: &hits[k],
-            frame: frames[k],
+    let zoned = contact_zones([a, b], &ints, &mapped, frames, reach, params.tau);
+    let t_zone = start.elapsed().as_secs_f64();
+    Ok(Some(Contact {
+        sides: zoned.sides,
+        threshold: zoned.threshold,
+        mean_depth: zoned.mean_depth,
+        depth_deviation: zoned.depth_deviation,
+        intersections: ints.stats,
+        timings: ContactTimings {
+            intersection: t_int,
+            mapping: t_map - t_int,
+            zones: t_zone - t_map,
+        },
+    }))
+}
+
+/// Two parts of one mesh (Sec. 6): the intersection regions `I_l` completed by the
+/// inside-twice test (built here when not `given`), and, per part, the faces its rays may
+/// land on: those within `HIT_REACH` edge lengths of its intersection region.
+fn parts_of_one_mesh(
+    parts: [SideFrame; 2],
+    ints: &Intersections,
+    given: Option<&InsideTwice>,
+    regions: &mut [IntersectionRegion; 2],
+) -> [Vec<bool>; 2] {
+    let built;
+    let inside = match given {
+        Some(t) => t,
+        None => {
+            built = InsideTwice::build(parts[0].mesh.positions(), parts[0].mesh.triangles());
+            &built
+        }
+    };
+    inside_by_winding(parts, ints, inside, regions);
+    let reach = HIT_REACH * inside.h;
+    [
+        near_region(parts[0].mesh, &regions[0], reach),
+        near_region(parts[1].mesh, &regions[1], reach),
+    ]
+}
+
+/// Sec. 4.2: the mapping region `M_l` of each side, cast along its `frames[l].cast`.
+fn mapping_regions(
+    sides: [SideFrame; 2],
+    regions: &[IntersectionRegion; 2],
+    frames: &[zones::SurfaceFrame; 2],
+    reach: f64,
+) -> [MappingRegion; 2] {
+    [0, 1].map(|k| {
+        mapping::mapping_region(
+            sides[k],
+            sides[1 - k],
+            &regions[k].inside,
+            &regions[1 - k],
+            &frames[k].cast,
             reach,
-        })
-        .collect();
+        )
+    })
+}
+
+/// The two sides' contact zones and the threshold they share (Sec. 4.3-4.4).
+struct ZonedSides {
+    sides: [ContactSide; 2],
+    threshold: f64,
+    mean_depth: f64,
+    depth_deviation: f64,
+}
+
+/// Sec. 4.3-4.4: the samples of each mapping region on the potential contact surface `S`,
+/// the symmetric threshold of Eq. 4 (`τ`) and the zones with their exact boundaries.
+fn contact_zones(
+    sides: [SideFrame; 2],
+    ints: &Intersections,
+    mapped: &[MappingRegion; 2],
+    frames: [zones::SurfaceFrame; 2],
+    reach: f64,
+    tau: f64,
+) -> ZonedSides {
+    let labels = [Side::A, Side::B];
+    let hits: [zones::EdgeHits; 2] =
+        [0, 1].map(|k| zones::edge_hits(ints, labels[k], sides[1 - k]));
+    let inputs = [0, 1].map(|k| zones::SideInput {
+        own: sides[k],
+        other: sides[1 - k],
+        region: &mapped[k],
+        hits: &hits[k],
+        frame: frames[k],
+        reach,
+    });
     let samples: [zones::SideSamples; 2] = [0, 1].map(|k| inputs[k].samples());
-    let moments = [
-        zones::depth_moments(a.mesh.triangles(), &samples[0]),
-        zones::depth_moments(b.mesh.triangles(), &samples[1]),
-    ];
-    let (threshold, mean_depth, depth_deviation) = zones::threshold(moments, params.tau);
+    let moments = [0, 1].map(|k| zones::depth_moments(sides[k].mesh.triangles(), &samples[k]));
+    let (threshold, mean_depth, depth_deviation) = zones::threshold(moments, tau);
     let zones = [0, 1].map(|k| zones::zone(&inputs[k], &samples[k], threshold));
     // The samples move into the sides (no copy).
     let side = |k: usize, own: zones::SideSamples, zone: Zone| ContactSide {
@@ -293,20 +342,12 @@ fn resolve(
             .collect(),
     };
     let ([s0, s1], [z0, z1]) = (samples, zones);
-    let sides = [side(0, s0, z0), side(1, s1, z1)];
-    let t_zone = start.elapsed().as_secs_f64();
-    Ok(Some(Contact {
-        sides,
+    ZonedSides {
+        sides: [side(0, s0, z0), side(1, s1, z1)],
         threshold,
         mean_depth,
         depth_deviation,
-        intersections: ints.stats,
-        timings: ContactTimings {
-            intersection: t_int,
-            mapping: t_map - t_int,
-            zones: t_zone - t_map,
-        },
-    }))
+    }
 }
 
 fn pair_direction(
