@@ -10,7 +10,9 @@
 use crate::contact::{
     resolve_pair, Contact, ContactError, ContactSide, DirectionMode, PairParams, SideFrame,
 };
-use crate::deform::{deform_region, DeformError, DeformParams, RegionFrame, WorkingRegion};
+use crate::deform::{
+    deform_region, DeformError, DeformParams, RegionDeformation, RegionFrame, WorkingRegion,
+};
 use crate::intersect::{IntersectError, MeshIndex};
 use crate::mesh::operators::{mean_edge_length, vertex_normals, NormalWeighting};
 use crate::solve::SolveError;
@@ -247,6 +249,42 @@ pub struct PassOutput {
     pub later_contacts: usize,
 }
 
+impl PassOutput {
+    /// Appends one body's result: its deformation, or its input unchanged (`None`: no
+    /// contact zone on it), with the diagnostics of either.
+    fn push_body(&mut self, deformed: Option<RegionDeformation>, input: &[Point3<f64>]) {
+        let Some(d) = deformed else {
+            let n = input.len();
+            self.positions.push(input.to_vec());
+            self.diagnostics.push(BodyDiagnostics {
+                u: vec![1.0; n],
+                zone: vec![false; n],
+                direction: vec![Vector3::zeros(); n],
+                bulge: vec![Vector3::zeros(); n],
+                amplitude: vec![0.0; n],
+                slope: vec![0.0; n],
+                stats: None,
+            });
+            return;
+        };
+        self.timings.parametrization += d.timings.parametrization;
+        self.timings.directions += d.timings.directions;
+        self.timings.fields += d.timings.fields;
+        self.timings.deformation += d.timings.deformation;
+        self.timings.factorization += d.timings.factorization;
+        self.positions.push(d.positions);
+        self.diagnostics.push(BodyDiagnostics {
+            u: d.u,
+            zone: d.zone,
+            direction: d.direction,
+            bulge: d.bulge,
+            amplitude: d.amplitude,
+            slope: d.slope,
+            stats: Some(d.stats),
+        });
+    }
+}
+
 add_assign_fields!(
     "Times of several passes or folds, summed stage by stage.",
     StageTimings {
@@ -394,24 +432,7 @@ impl ContactPass {
 
     fn run_once(&self, positions: &[Vec<Point3<f64>>], time: f64) -> Result<PassOutput, PassError> {
         let wall = Instant::now();
-        if positions.len() != self.bodies.len() {
-            return Err(PassError::Mismatch(format!(
-                "{} bodies, {} position sets",
-                self.bodies.len(),
-                positions.len()
-            )));
-        }
-        for (body, (p, b)) in positions.iter().zip(&self.bodies).enumerate() {
-            if p.len() != b.index.vertex_count() {
-                return Err(PassError::Intersect {
-                    body,
-                    source: IntersectError::PositionCount {
-                        expected: b.index.vertex_count(),
-                        got: p.len(),
-                    },
-                });
-            }
-        }
+        self.check_counts(positions)?;
         let normals: Vec<Vec<Vector3<f64>>> = positions
             .par_iter()
             .zip(&self.bodies)
@@ -431,44 +452,7 @@ impl ContactPass {
             setup: wall.elapsed().as_secs_f64(),
             ..Default::default()
         };
-        let pairs: Vec<(usize, usize)> = (0..posed.len())
-            .flat_map(|a| (a + 1..posed.len()).map(move |b| (a, b)))
-            .filter(|&(a, b)| boxes_overlap(&posed[a], &posed[b]))
-            .collect();
-        let contacts: Vec<ContactSummary> = pairs
-            .par_iter()
-            .map(|&(a, b)| {
-                // Geometric order, not body order: the same two surfaces give the same bits
-                // whichever body comes first (the exact predicates break ties by perturbing
-                // the second surface).
-                let (a, b) = if canonical_key(&positions[b]) < canonical_key(&positions[a]) {
-                    (b, a)
-                } else {
-                    (a, b)
-                };
-                let fa = SideFrame {
-                    mesh: &posed[a],
-                    normals: &normals[a],
-                    hittable: None,
-                };
-                let fb = SideFrame {
-                    mesh: &posed[b],
-                    normals: &normals[b],
-                    hittable: None,
-                };
-                resolve_pair(fa, fb, &self.pair_params(a, b, time))
-                    .map(|c| {
-                        c.map(|contact| ContactSummary {
-                            bodies: [a, b],
-                            contact,
-                        })
-                    })
-                    .map_err(|source| PassError::Contact { a, b, source })
-            })
-            .collect::<Result<Vec<_>, _>>()?
-            .into_iter()
-            .flatten()
-            .collect();
+        let contacts = self.contacts(positions, &normals, &posed, time)?;
         for c in &contacts {
             timings.intersection += c.contact.timings.intersection;
             timings.mapping += c.contact.timings.mapping;
@@ -486,41 +470,74 @@ impl ContactPass {
             later_contacts: 0,
         };
         for (body, r) in results.into_iter().enumerate() {
-            match r {
-                Some(d) => {
-                    out.timings.parametrization += d.timings.parametrization;
-                    out.timings.directions += d.timings.directions;
-                    out.timings.fields += d.timings.fields;
-                    out.timings.deformation += d.timings.deformation;
-                    out.timings.factorization += d.timings.factorization;
-                    out.positions.push(d.positions);
-                    out.diagnostics.push(BodyDiagnostics {
-                        u: d.u,
-                        zone: d.zone,
-                        direction: d.direction,
-                        bulge: d.bulge,
-                        amplitude: d.amplitude,
-                        slope: d.slope,
-                        stats: Some(d.stats),
-                    });
-                }
-                None => {
-                    let n = positions[body].len();
-                    out.positions.push(positions[body].clone());
-                    out.diagnostics.push(BodyDiagnostics {
-                        u: vec![1.0; n],
-                        zone: vec![false; n],
-                        direction: vec![Vector3::zeros(); n],
-                        bulge: vec![Vector3::zeros(); n],
-                        amplitude: vec![0.0; n],
-                        slope: vec![0.0; n],
-                        stats: None,
-                    });
-                }
-            }
+            out.push_body(r, &positions[body]);
         }
         out.timings.wall = wall.elapsed().as_secs_f64();
         Ok(out)
+    }
+
+    /// One position set per body, each with the body's vertex count.
+    fn check_counts(&self, positions: &[Vec<Point3<f64>>]) -> Result<(), PassError> {
+        if positions.len() != self.bodies.len() {
+            return Err(PassError::Mismatch(format!(
+                "{} bodies, {} position sets",
+                self.bodies.len(),
+                positions.len()
+            )));
+        }
+        for (body, (p, b)) in positions.iter().zip(&self.bodies).enumerate() {
+            if p.len() != b.index.vertex_count() {
+                return Err(PassError::Intersect {
+                    body,
+                    source: IntersectError::PositionCount {
+                        expected: b.index.vertex_count(),
+                        got: p.len(),
+                    },
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// The contacts (Sec. 4) of every pair of bodies whose boxes overlap, in parallel.
+    fn contacts(
+        &self,
+        positions: &[Vec<Point3<f64>>],
+        normals: &[Vec<Vector3<f64>>],
+        posed: &[crate::intersect::PosedMesh],
+        time: f64,
+    ) -> Result<Vec<ContactSummary>, PassError> {
+        let pairs: Vec<(usize, usize)> = (0..posed.len())
+            .flat_map(|a| (a + 1..posed.len()).map(move |b| (a, b)))
+            .filter(|&(a, b)| boxes_overlap(&posed[a], &posed[b]))
+            .collect();
+        let found = pairs
+            .par_iter()
+            .map(|&(a, b)| {
+                // Geometric order, not body order: the same two surfaces give the same bits
+                // whichever body comes first (the exact predicates break ties by perturbing
+                // the second surface).
+                let (a, b) = if canonical_key(&positions[b]) < canonical_key(&positions[a]) {
+                    (b, a)
+                } else {
+                    (a, b)
+                };
+                let side = |k: usize| SideFrame {
+                    mesh: &posed[k],
+                    normals: &normals[k],
+                    hittable: None,
+                };
+                resolve_pair(side(a), side(b), &self.pair_params(a, b, time))
+                    .map(|c| {
+                        c.map(|contact| ContactSummary {
+                            bodies: [a, b],
+                            contact,
+                        })
+                    })
+                    .map_err(|source| PassError::Contact { a, b, source })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(found.into_iter().flatten().collect())
     }
 
     fn deform_body(
@@ -529,7 +546,7 @@ impl ContactPass {
         positions: &[Vec<Point3<f64>>],
         normals: &[Vec<Vector3<f64>>],
         contacts: &[ContactSummary],
-    ) -> Result<Option<crate::deform::RegionDeformation>, PassError> {
+    ) -> Result<Option<RegionDeformation>, PassError> {
         let sides: Vec<&ContactSide> = contacts
             .iter()
             .flat_map(|c| {
