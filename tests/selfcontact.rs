@@ -377,6 +377,37 @@ impl CapsuleFold {
         Self { l, pre, axes, pair }
     }
 
+    /// The convex side of the joint (rest `x > 0`; the bend turns toward -X) where
+    /// `β ∈ [0.4, 0.6]`.
+    fn exterior_band(&self) -> Vec<usize> {
+        let r = &self.pre.regions;
+        let rest = welded_positions(&self.l.rig, &self.l.pre, 0.0, None);
+        (0..rest[0].len())
+            .filter(|&v| r.w1[v] && r.w2[v] && (r.beta[v] - 0.5).abs() < 0.1)
+            .filter(|&v| rest[0][v].x > 0.0)
+            .collect()
+    }
+
+    /// Per frame `0..=last` with a fold: how far the `exterior` moved at most (edge lengths).
+    fn exterior_motion(
+        &self,
+        exterior: &[usize],
+        last: usize,
+        params: &FoldParams,
+    ) -> Vec<(usize, f64)> {
+        (0..=last)
+            .filter_map(|f| {
+                let frame = self.at(f, params);
+                let out = frame.out?;
+                let moved = exterior
+                    .iter()
+                    .map(|&v| (out.positions[v] - frame.input[v]).norm() / self.l.h_rest)
+                    .fold(0.0, f64::max);
+                Some((f, moved))
+            })
+            .collect()
+    }
+
     fn at(&self, f: usize, params: &FoldParams) -> FoldFrame {
         use contact_skin::selfcontact::{fold::resolve_detected, skeleton_direction};
         let l = &self.l;
@@ -609,14 +640,7 @@ fn bad_input_gives_typed_errors() {
 #[test]
 fn exterior_of_the_joint_is_left_alone() {
     let fold = CapsuleFold::new();
-    let (r, rest) = (
-        &fold.pre.regions,
-        welded_positions(&fold.l.rig, &fold.l.pre, 0.0, None),
-    );
-    let exterior: Vec<usize> = (0..rest[0].len())
-        .filter(|&v| r.w1[v] && r.w2[v] && (r.beta[v] - 0.5).abs() < 0.1)
-        .filter(|&v| rest[0][v].x > 0.0)
-        .collect();
+    let exterior = fold.exterior_band();
     assert!(exterior.len() >= 8, "the capsule has an exterior band");
     for (gamma, last) in [(0.0, 16), (1.0, 12)] {
         let mut params = FoldParams {
@@ -625,20 +649,14 @@ fn exterior_of_the_joint_is_left_alone() {
         };
         params.deform.extent = 0.2;
         params.deform.gamma = gamma;
-        let mut folds = 0;
-        for f in 0..=last {
-            let frame = fold.at(f, &params);
-            let Some(out) = frame.out else { continue };
-            folds += 1;
-            let moved = exterior
-                .iter()
-                .map(|&v| (out.positions[v] - frame.input[v]).norm() / fold.l.h_rest)
-                .fold(0.0, f64::max);
+        let motion = fold.exterior_motion(&exterior, last, &params);
+        for (f, moved) in &motion {
             assert!(
-                moved < 0.01,
+                *moved < 0.01,
                 "gamma {gamma}, frame {f}: the exterior moved {moved:.4} h"
             );
         }
+        let folds = motion.len();
         assert!(
             folds >= 3,
             "gamma {gamma}: the bend folds in {folds} frames"
@@ -685,28 +703,13 @@ fn bulges_higher_than_their_band_are_refused() {
 #[test]
 fn exterior_with_the_default_extent() {
     let fold = CapsuleFold::new();
-    let (r, rest) = (
-        &fold.pre.regions,
-        welded_positions(&fold.l.rig, &fold.l.pre, 0.0, None),
-    );
-    let exterior: Vec<usize> = (0..rest[0].len())
-        .filter(|&v| r.w1[v] && r.w2[v] && (r.beta[v] - 0.5).abs() < 0.1)
-        .filter(|&v| rest[0][v].x > 0.0)
-        .collect();
+    let exterior = fold.exterior_band();
     for (gamma, bound) in [(0.0, 0.1), (1.0, 1.0)] {
         let mut params = FoldParams::default();
         params.deform.gamma = gamma;
-        let (mut folds, mut worst) = (0, 0.0f64);
-        for f in 0..=30 {
-            let frame = fold.at(f, &params);
-            let Some(out) = frame.out else { continue };
-            folds += 1;
-            let moved = exterior
-                .iter()
-                .map(|&v| (out.positions[v] - frame.input[v]).norm() / fold.l.h_rest)
-                .fold(0.0, f64::max);
-            worst = worst.max(moved);
-        }
+        let motion = fold.exterior_motion(&exterior, 30, &params);
+        let folds = motion.len();
+        let worst = motion.iter().map(|m| m.1).fold(0.0, f64::max);
         println!("gamma {gamma}: the exterior moved {worst:.3} h at most over {folds} folds");
         assert!(
             folds >= 20,
