@@ -622,49 +622,9 @@ fn read_primitive(
             extras: None,
         });
     }
-    let pos_acc = prim
-        .get(&gltf::Semantic::Positions)
-        .ok_or_else(|| invalid(src.file, &at, "has no POSITION"))?;
-    let pos = accessor::read(
-        src,
-        doc,
-        pos_acc.index(),
-        &format!("POSITION of {at}"),
-        &[3],
-        false,
-    )?;
+    let pos = read_positions(src, doc, prim, &at, body.positions.len())?;
     let n = pos.count();
-    if pos.data.iter().any(|x| !x.is_finite()) {
-        return Err(invalid(src.file, &at, "POSITION holds a non-finite value"));
-    }
-    if (body.positions.len() + n) as u64 > u32::MAX as u64 {
-        return Err(invalid(
-            src.file,
-            &at,
-            "more than 2^32 vertices in one mesh",
-        ));
-    }
-    let normals = match prim.get(&gltf::Semantic::Normals) {
-        Some(acc) => {
-            let v = accessor::read(
-                src,
-                doc,
-                acc.index(),
-                &format!("NORMAL of {at}"),
-                &[3],
-                false,
-            )?;
-            if v.count() != n {
-                return Err(invalid(
-                    src.file,
-                    &at,
-                    format!("NORMAL has {} elements, POSITION {}", v.count(), n),
-                ));
-            }
-            Some(v)
-        }
-        None => None,
-    };
+    let normals = read_normals(src, doc, prim, &at, n)?;
     let weights = read_weights(src, doc, prim, &at, n, skin, warnings)?;
     let extras = read_extras(src, doc, prim, &at, n, warnings)?;
     let indices = match prim.indices() {
@@ -681,30 +641,17 @@ fn read_primitive(
         }
         None => (0..n as u32).collect(),
     };
-    let local_tris = triangulate(mode, &indices);
     let first_vertex = body.positions.len();
-    let first_triangle = body.triangles.len();
     body.positions
         .extend((0..n).map(|i| Point3::from_slice(pos.element(i))));
-    match normals {
-        Some(v) => body.normals.extend((0..n).map(|i| {
-            let nv = Vector3::from_column_slice(v.element(i));
-            let len = nv.norm();
-            if len.is_finite() && len > 1e-12 {
-                nv / len
-            } else {
-                Vector3::zeros()
-            }
-        })),
-        None => body
-            .normals
-            .extend(std::iter::repeat_n(Vector3::zeros(), n)),
-    }
+    append_normals(body, normals.as_ref(), n);
     for r in 0..n {
         let (j, w) = weights.row_slices(r);
         let row: Vec<(u16, f64)> = j.iter().copied().zip(w.iter().copied()).collect();
         body.weights.push_row(&row);
     }
+    let local_tris = triangulate(mode, &indices);
+    let first_triangle = body.triangles.len();
     let off = first_vertex as u32;
     body.triangles.extend(
         local_tris
@@ -723,6 +670,82 @@ fn read_primitive(
         has_normals: normals_present(prim),
         extras: Some(extras),
     })
+}
+
+/// POSITION of a primitive: finite, and the body (holding `before` vertices) stays within
+/// 32-bit indices.
+fn read_positions(
+    src: &Source,
+    doc: &gltf::Document,
+    prim: &gltf::Primitive,
+    at: &str,
+    before: usize,
+) -> Result<accessor::Values, RigError> {
+    let acc = prim
+        .get(&gltf::Semantic::Positions)
+        .ok_or_else(|| invalid(src.file, at, "has no POSITION"))?;
+    let pos = accessor::read(
+        src,
+        doc,
+        acc.index(),
+        &format!("POSITION of {at}"),
+        &[3],
+        false,
+    )?;
+    if pos.data.iter().any(|x| !x.is_finite()) {
+        return Err(invalid(src.file, at, "POSITION holds a non-finite value"));
+    }
+    if (before + pos.count()) as u64 > u32::MAX as u64 {
+        return Err(invalid(src.file, at, "more than 2^32 vertices in one mesh"));
+    }
+    Ok(pos)
+}
+
+/// NORMAL of a primitive of `n` vertices, if it has one.
+fn read_normals(
+    src: &Source,
+    doc: &gltf::Document,
+    prim: &gltf::Primitive,
+    at: &str,
+    n: usize,
+) -> Result<Option<accessor::Values>, RigError> {
+    let Some(acc) = prim.get(&gltf::Semantic::Normals) else {
+        return Ok(None);
+    };
+    let v = accessor::read(
+        src,
+        doc,
+        acc.index(),
+        &format!("NORMAL of {at}"),
+        &[3],
+        false,
+    )?;
+    if v.count() != n {
+        return Err(invalid(
+            src.file,
+            at,
+            format!("NORMAL has {} elements, POSITION {}", v.count(), n),
+        ));
+    }
+    Ok(Some(v))
+}
+
+/// Appends `n` unit normals (zero where the file has none, or a zero or non-finite one).
+fn append_normals(body: &mut Body, normals: Option<&accessor::Values>, n: usize) {
+    match normals {
+        Some(v) => body.normals.extend((0..n).map(|i| {
+            let nv = Vector3::from_column_slice(v.element(i));
+            let len = nv.norm();
+            if len.is_finite() && len > 1e-12 {
+                nv / len
+            } else {
+                Vector3::zeros()
+            }
+        })),
+        None => body
+            .normals
+            .extend(std::iter::repeat_n(Vector3::zeros(), n)),
+    }
 }
 
 fn normals_present(prim: &gltf::Primitive) -> bool {
@@ -747,8 +770,15 @@ fn read_weights(
             prim.get(&gltf::Semantic::Joints(set)),
             prim.get(&gltf::Semantic::Weights(set)),
         );
-        let (ja, wa) = match (ja, wa) {
-            (Some(j), Some(w)) => (j, w),
+        match (ja, wa) {
+            (Some(j), Some(w)) => {
+                let set = WeightSet {
+                    set,
+                    joints: j.index(),
+                    weights: w.index(),
+                };
+                read_weight_set(src, doc, at, &set, skin, &mut raw)?;
+            }
             (None, None) if set > 0 => break,
             (None, None) => {
                 return Err(invalid(
@@ -764,51 +794,81 @@ fn read_weights(
                     format!("JOINTS_{set} and WEIGHTS_{set} must come together"),
                 ))
             }
-        };
-        let (_, joints) = accessor::read_indices(
-            src,
-            doc,
-            ja.index(),
-            &format!("JOINTS_{set} of {at}"),
-            &[4],
-            1 << 16,
-        )?;
-        let weights = accessor::read(
-            src,
-            doc,
-            wa.index(),
-            &format!("WEIGHTS_{set} of {at}"),
-            &[4],
-            true,
-        )?;
-        if joints.len() != 4 * n || weights.data.len() != 4 * n {
-            return Err(invalid(
-                src.file,
-                at,
-                format!("JOINTS_{set} / WEIGHTS_{set} counts differ from POSITION ({n})"),
-            ));
-        }
-        for v in 0..n {
-            for k in 0..4 {
-                let (j, w) = (joints[4 * v + k], weights.data[4 * v + k]);
-                if w != 0.0 && j as usize >= skin.joints.len() {
-                    return Err(invalid(
-                        src.file,
-                        format!("JOINTS_{set} of {at}"),
-                        format!(
-                            "vertex {v} uses joint {j} with weight {w}, but the skin has {} joints",
-                            skin.joints.len()
-                        ),
-                    ));
-                }
-                raw[v].push((j as u16, w));
-            }
         }
     }
-    let mut out = SkinWeights::with_capacity(n);
+    Ok(normalized_weights(&raw, at, warnings))
+}
+
+/// One JOINTS_i / WEIGHTS_i pair of accessors.
+struct WeightSet {
+    set: u32,
+    joints: usize,
+    weights: usize,
+}
+
+/// Appends a set's four (joint, weight) entries to each vertex's `raw` row; a joint index
+/// outside the skin with a non-zero weight is an error.
+fn read_weight_set(
+    src: &Source,
+    doc: &gltf::Document,
+    at: &str,
+    ws: &WeightSet,
+    skin: &Skin,
+    raw: &mut [Vec<(u16, f64)>],
+) -> Result<(), RigError> {
+    let (set, n) = (ws.set, raw.len());
+    let (_, joints) = accessor::read_indices(
+        src,
+        doc,
+        ws.joints,
+        &format!("JOINTS_{set} of {at}"),
+        &[4],
+        1 << 16,
+    )?;
+    let weights = accessor::read(
+        src,
+        doc,
+        ws.weights,
+        &format!("WEIGHTS_{set} of {at}"),
+        &[4],
+        true,
+    )?;
+    if joints.len() != 4 * n || weights.data.len() != 4 * n {
+        return Err(invalid(
+            src.file,
+            at,
+            format!("JOINTS_{set} / WEIGHTS_{set} counts differ from POSITION ({n})"),
+        ));
+    }
+    for (v, row) in raw.iter_mut().enumerate() {
+        for k in 0..4 {
+            let (j, w) = (joints[4 * v + k], weights.data[4 * v + k]);
+            if w != 0.0 && j as usize >= skin.joints.len() {
+                return Err(invalid(
+                    src.file,
+                    format!("JOINTS_{set} of {at}"),
+                    format!(
+                        "vertex {v} uses joint {j} with weight {w}, but the skin has {} joints",
+                        skin.joints.len()
+                    ),
+                ));
+            }
+            row.push((j as u16, w));
+        }
+    }
+    Ok(())
+}
+
+/// The rows normalized ([`normalize_row`]), each fallback counted in `warnings`.
+fn normalized_weights(
+    raw: &[Vec<(u16, f64)>],
+    at: &str,
+    warnings: &mut Vec<String>,
+) -> SkinWeights {
+    let mut out = SkinWeights::with_capacity(raw.len());
     let (mut invalid_rows, mut renormalized, mut empty) = (0, 0, 0);
     let mut row = Vec::with_capacity(8);
-    for r in &raw {
+    for r in raw {
         let fixes = normalize_row(r, &mut row);
         invalid_rows += fixes.dropped_invalid as usize;
         renormalized += fixes.renormalized as usize;
@@ -833,7 +893,7 @@ fn read_weights(
             "{at}: {empty} vertices had no usable weight (bound to the skin's first joint)"
         ));
     }
-    Ok(out)
+    out
 }
 
 fn triangulate(mode: gltf::mesh::Mode, idx: &[u32]) -> Vec<[u32; 3]> {
