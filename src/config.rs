@@ -27,6 +27,7 @@
 //! joint_extent = 1.75             # φ̄ × the joint's size (default); or extent / extent_factor
 //! gamma = 1.0
 //! omega = 2.0
+//! turn_guard = true               # scale the displacement back where a face would turn over
 //! direction = "skeleton"          # every pair's default: "skeleton" or "motion"
 //! [[self_contact.pair]]
 //! name = "lips/head-jaw"          # a derived joint pair (`contact-skin info`)
@@ -466,6 +467,8 @@ pub struct SelfContactSpec {
     pub gamma: Option<f64>,
     /// `ω`.
     pub omega: Option<f64>,
+    /// [`FoldParams::turn_guard`] (default `true`).
+    pub turn_guard: Option<bool>,
     /// Where the pairs without a `[[self_contact.pair]]` direction take theirs from:
     /// `"skeleton"` (default) or `"motion"`.
     pub direction: Option<SelfDirection>,
@@ -1122,6 +1125,9 @@ impl ContactConfig {
         }
         if let Some(w) = spec.omega {
             params.deform.omega = w;
+        }
+        if let Some(guard) = spec.turn_guard {
+            params.turn_guard = guard;
         }
         if let Some(k) = spec.joint_extent {
             params.joint_extent = Some(k);

@@ -704,6 +704,18 @@ fn the_self_contact_table_parses_and_resolves() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// `turn_guard` is on by default and can be turned off.
+#[test]
+fn the_turn_guard_is_a_setting() {
+    let dir = mouth_dir("turn-guard");
+    let default = resolve_self(&dir, "[self_contact]\n").expect("resolves");
+    assert!(default.params.turn_guard);
+    let off = resolve_self(&dir, "[self_contact]\nturn_guard = false\n").expect("resolves");
+    assert!(!off.params.turn_guard);
+    assert!(resolve_self(&dir, "[self_contact]\nturn_guard = 1\n").is_err());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// `joint_extent` sets `φ̄` per joint (the default, 1.75); `extent` or `extent_factor` set it in
 /// scene units for every joint instead.
 #[test]

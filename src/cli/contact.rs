@@ -276,6 +276,8 @@ pub struct FoldDiagnostics {
     /// Left unresolved: no bulge could keep the volume without a spike (the output is the
     /// fold's input).
     pub unbalanced: bool,
+    /// Vertices whose displacement the turn guard scaled back (`FoldOutput::guarded`).
+    pub guarded: usize,
     /// Step timings of the fold in seconds.
     pub timings_s: FoldTimings,
 }
@@ -401,6 +403,7 @@ pub fn diagnostics(rig: &Rig, pre: &Precomputed, c: &ContactFrame) -> FrameDiagn
                 bulge_height: o.bulge_height,
                 bulge_steepness: o.bulge_steepness,
                 unbalanced: o.unbalanced,
+                guarded: o.guarded,
                 timings_s: o.timings,
             }
         })

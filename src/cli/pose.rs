@@ -134,6 +134,9 @@ struct Summary {
     /// Folds left unresolved because no bulge could keep the volume without a spike, summed
     /// over the frames.
     folds_unbalanced: usize,
+    /// Vertices whose displacement the turn guard scaled back so that no face turns over,
+    /// summed over the folds and frames.
+    vertices_guarded: usize,
     /// Median time of the self-contact pass per frame (ms), over all frames.
     self_contact_ms: Option<f64>,
     /// Median fold step times (ms) over the frames with a fold (each step summed over the
@@ -207,6 +210,7 @@ struct FrameStats {
     fold_timings: Option<(FoldTimings, f64)>,
     folds_without_direction: usize,
     folds_unbalanced: usize,
+    vertices_guarded: usize,
 }
 
 /// Runs `pose`.
@@ -365,6 +369,7 @@ fn summarize(
         folds,
         folds_without_direction: stats.iter().map(|s| s.folds_without_direction).sum(),
         folds_unbalanced: stats.iter().map(|s| s.folds_unbalanced).sum(),
+        vertices_guarded: stats.iter().map(|s| s.vertices_guarded).sum(),
         self_contact_ms: self_run.map(|_| median(self_walls)),
         fold_ms: self_run.map(|_| median_folds(&with_fold)),
     }
@@ -450,6 +455,12 @@ fn print_summary(s: &Summary, a: &Args) -> CliResult {
                 s.folds_unbalanced
             );
         }
+        if s.vertices_guarded > 0 {
+            println!(
+                "self-contact: the turn guard scaled back {} vertex displacement(s) (summed over the folds) so that no face turns over",
+                s.vertices_guarded
+            );
+        }
     }
     Ok(())
 }
@@ -469,6 +480,7 @@ fn compute(job: &Job, i: usize, t: f64) -> Result<(Frame, FrameStats), String> {
             fold_timings: None,
             folds_without_direction: 0,
             folds_unbalanced: 0,
+            vertices_guarded: 0,
         };
         return Ok((frame, stats));
     };
@@ -492,6 +504,7 @@ fn compute(job: &Job, i: usize, t: f64) -> Result<(Frame, FrameStats), String> {
         fold_timings: so.map(|s| (s.timings, cf.self_wall)),
         folds_without_direction: so.map_or(0, |s| s.no_direction),
         folds_unbalanced: so.map_or(0, |s| s.unbalanced),
+        vertices_guarded: so.map_or(0, |s| s.guarded),
     };
     Ok((cf.frame, stats))
 }

@@ -12,6 +12,7 @@
 
 use super::crease::{crease_cut, Crease, CreaseInput, CreaseParams, CreaseTopology};
 use super::regions::PairRegions;
+use super::turn_guard::{displacement_scales, GuardInput, TurnReference};
 use crate::contact::{
     inside_from, resolve_self_pair, Contact, ContactSide, DirectionMode, InsideTwice, PairParams,
     SideFrame,
@@ -117,6 +118,10 @@ pub struct FoldParams {
     /// capsule radii, 11 finger radii), spread the bulge over whole limbs, mostly tangential
     /// there (faceting along the capsule), and left the finger 17 penetrating vertices.
     pub joint_extent: Option<f64>,
+    /// Scale the blended displacement back where it would turn a face over (against both its
+    /// input normal and the skinning's; [`super::turn_guard`]; needs
+    /// [`FoldInput::turn_reference`]). Not in the paper. Default on.
+    pub turn_guard: bool,
 }
 
 impl FoldParams {
@@ -141,6 +146,7 @@ impl Default for FoldParams {
             },
             crease: CreaseParams::default(),
             joint_extent: Some(DEFAULT_JOINT_EXTENT),
+            turn_guard: true,
         }
     }
 }
@@ -244,6 +250,8 @@ pub struct FoldOutput {
     /// the fold is left unresolved rather than resolved with a volume error (measured on
     /// CesiumMan: 7e-3) or a spike.
     pub unbalanced: bool,
+    /// Vertices whose displacement the turn guard scaled back ([`FoldParams::turn_guard`]).
+    pub guarded: usize,
     /// Each region's own deformation with the common bulge height, before the blend (`p'_1`,
     /// `p'_2`; whole mesh, unchanged outside the region).
     pub region_positions: [Vec<Point3<f64>>; 2],
@@ -378,12 +386,16 @@ fn rest_labels(triangles: &[[u32; 3]], r: &PairRegions) -> Vec<u8> {
 pub fn resolve_detected(
     pre: &FoldPre,
     detection: &Detection,
-    positions: &[Point3<f64>],
-    normals: &[Vector3<f64>],
-    triangles: &[[u32; 3]],
-    direction: Vector3<f64>,
+    geometry: &FoldInput,
     params: &FoldParams,
 ) -> Result<Option<FoldOutput>, FoldError> {
+    let FoldInput {
+        positions,
+        normals,
+        triangles,
+        direction,
+        ..
+    } = *geometry;
     let mut timings = FoldTimings {
         detection: detection.seconds,
         ..FoldTimings::default()
@@ -394,13 +406,7 @@ pub fn resolve_detected(
         .refit(positions, triangles)
         .then(|| InsideTwice::new(std::borrow::Cow::Borrowed(&winding), positions, triangles));
     let tree = inside.as_ref();
-    let geometry = FrameGeometry {
-        positions,
-        normals,
-        triangles,
-        direction,
-    };
-    let (crease, truncated) = cut_the_crease(pre, detection, &geometry, tree, params)?;
+    let (crease, truncated) = cut_the_crease(pre, detection, geometry, tree, params)?;
     timings.crease = laps.next();
     let contact = truncated_contact(&truncated, positions, normals, direction, params, tree)?;
     timings.contact = laps.next();
@@ -412,9 +418,9 @@ pub fn resolve_detected(
     }
     let sigma = sigma_field(pre, positions, &contact)?;
     timings.directions = laps.next();
-    let [s1, s2] = deform_both(pre, &geometry, &contact, &sigma, params)?;
+    let [s1, s2] = deform_both(pre, geometry, &contact, &sigma, params)?;
     timings.deformation = laps.next();
-    let blended = blend_and_balance(pre, triangles, positions, [&s1, &s2], params.deform.gamma)?;
+    let blended = blend_and_balance(pre, geometry, [&s1, &s2], params)?;
     timings.volume = laps.next();
     let gamma_h = params.deform.gamma * blended.h;
     timings.stages = table1_stages(&timings, &contact.timings, [&s1.timings, &s2.timings]);
@@ -429,17 +435,25 @@ pub fn resolve_detected(
         root: blended.root,
         bulge_steepness: blended.steepness,
         unbalanced: blended.unbalanced,
+        guarded: blended.guarded,
         timings,
     }))
 }
 
-/// The posed body of one frame, as the fold's steps read it.
-struct FrameGeometry<'a> {
-    positions: &'a [Point3<f64>],
-    normals: &'a [Vector3<f64>],
-    triangles: &'a [[u32; 3]],
+/// The posed body of one frame, as a fold reads it.
+#[derive(Clone, Copy)]
+pub struct FoldInput<'a> {
+    /// Positions of the whole mesh.
+    pub positions: &'a [Point3<f64>],
+    /// Unit vertex normals of `positions`.
+    pub normals: &'a [Vector3<f64>],
+    /// Mesh triangles.
+    pub triangles: &'a [[u32; 3]],
     /// `d̂_12`, W1's outward direction.
-    direction: Vector3<f64>,
+    pub direction: Vector3<f64>,
+    /// What the turn guard keeps faces from turning against ([`FoldParams::turn_guard`]):
+    /// the frame's input and the skinning's normals; `None`: no guard.
+    pub turn_reference: Option<TurnReference<'a>>,
 }
 
 /// Seconds between successive calls of [`Laps::next`].
@@ -471,7 +485,7 @@ impl Laps {
 fn cut_the_crease(
     pre: &FoldPre,
     detection: &Detection,
-    g: &FrameGeometry,
+    g: &FoldInput,
     tree: Option<&InsideTwice>,
     params: &FoldParams,
 ) -> Result<(Crease, [MeshIndex; 2]), FoldError> {
@@ -509,7 +523,7 @@ fn cut_the_crease(
 /// direction"), `R`'s vertices free to move: the two are independent until the blend.
 fn deform_both(
     pre: &FoldPre,
-    g: &FrameGeometry,
+    g: &FoldInput,
     contact: &Contact,
     sigma: &[f64],
     params: &FoldParams,
@@ -682,42 +696,45 @@ struct Blended {
     root: Option<RootKind>,
     steepness: f64,
     unbalanced: bool,
+    guarded: usize,
 }
 
 /// Sec. 6: `P = β P_1 + (1 - β) P_2`, `Q` likewise, one bulge height `h_v` on the blended pair
-/// (closed meshes), `p' = P + γ h_v Q`; the input when no bulge can keep the volume
+/// (closed meshes), `p' = P + γ h_v Q`, the turn guard's scales applied to `P - p` and `Q`
+/// before `h_v` is solved again; the input when no bulge can keep the volume
 /// ([`FoldOutput::unbalanced`]).
 fn blend_and_balance(
     pre: &FoldPre,
-    triangles: &[[u32; 3]],
-    positions: &[Point3<f64>],
-    regions: [&crate::deform::RegionDeformation; 2],
-    gamma: f64,
+    g: &FoldInput,
+    regions: [&RegionDeformation; 2],
+    params: &FoldParams,
 ) -> Result<Blended, FoldError> {
-    let r = &pre.regions;
-    let (mut base, mut bulge) = (positions.to_vec(), vec![Vector3::zeros(); positions.len()]);
-    for v in 0..positions.len() {
-        let b = match (r.w1[v], r.w2[v]) {
-            (false, false) => continue,
-            (true, true) => r.beta[v].clamp(0.0, 1.0),
-            (true, false) => 1.0,
-            (false, true) => 0.0,
+    let (positions, triangles) = (g.positions, g.triangles);
+    let gamma = params.deform.gamma;
+    let (mut base, mut bulge) = blend(pre, positions, regions);
+    let (mut h, mut root) = balance(pre, g, &base, &bulge)?;
+    let mut out = displaced(&base, &bulge, gamma * h);
+    let mut guarded = 0;
+    if let Some(reference) = g.turn_reference.filter(|_| params.turn_guard) {
+        let guard = GuardInput {
+            triangles,
+            faces: &pre.faces,
+            input: positions,
+            reference,
         };
-        base[v] =
-            Point3::from(regions[0].base[v].coords * b + regions[1].base[v].coords * (1.0 - b));
-        bulge[v] = regions[0].bulge_unit[v] * b + regions[1].bulge_unit[v] * (1.0 - b);
+        for _ in 0..GUARD_SOLVES {
+            let Some(scale) = displacement_scales(&guard, &out) else {
+                break;
+            };
+            for (v, &s) in scale.iter().enumerate().filter(|(_, &s)| s < 1.0) {
+                base[v] = positions[v] + (base[v] - positions[v]) * s;
+                bulge[v] *= s;
+            }
+            guarded = guarded.max(scale.iter().filter(|&&s| s < 1.0).count());
+            (h, root) = balance(pre, g, &base, &bulge)?;
+            out = displaced(&base, &bulge, gamma * h);
+        }
     }
-    let (h, root) = if pre.closed {
-        let (h, kind) = bulge_height(triangles, positions, &base, &bulge)?;
-        (h, Some(kind))
-    } else {
-        (0.0, None)
-    };
-    let mut out: Vec<Point3<f64>> = base
-        .iter()
-        .zip(&bulge)
-        .map(|(p, q)| p + q * (gamma * h))
-        .collect();
     let no_root = gamma != 0.0
         && root.is_some_and(|k| k != RootKind::Exact)
         && crate::report::metrics::volume_error(
@@ -735,11 +752,58 @@ fn blend_and_balance(
         root,
         steepness,
         unbalanced,
+        guarded,
     })
 }
 
+/// Volume solves with the turn guard's scales: the guard scales the displacement back, the
+/// volume solve raises the bulge again, which may turn a face the guard then catches.
+const GUARD_SOLVES: usize = 8;
+
+/// `P` and `Q` blended over `W1 ∪ W2` with `β` (the input and 0 elsewhere).
+fn blend(
+    pre: &FoldPre,
+    positions: &[Point3<f64>],
+    regions: [&RegionDeformation; 2],
+) -> (Vec<Point3<f64>>, Vec<Vector3<f64>>) {
+    let r = &pre.regions;
+    let (mut base, mut bulge) = (positions.to_vec(), vec![Vector3::zeros(); positions.len()]);
+    for v in 0..positions.len() {
+        let b = match (r.w1[v], r.w2[v]) {
+            (false, false) => continue,
+            (true, true) => r.beta[v].clamp(0.0, 1.0),
+            (true, false) => 1.0,
+            (false, true) => 0.0,
+        };
+        base[v] =
+            Point3::from(regions[0].base[v].coords * b + regions[1].base[v].coords * (1.0 - b));
+        bulge[v] = regions[0].bulge_unit[v] * b + regions[1].bulge_unit[v] * (1.0 - b);
+    }
+    (base, bulge)
+}
+
+/// The bulge height `h_v` that keeps the closed body's volume (Sec. 5.3 on the blended pair);
+/// 0 for an open one.
+fn balance(
+    pre: &FoldPre,
+    g: &FoldInput,
+    base: &[Point3<f64>],
+    bulge: &[Vector3<f64>],
+) -> Result<(f64, Option<RootKind>), FoldError> {
+    if !pre.closed {
+        return Ok((0.0, None));
+    }
+    let (h, kind) = bulge_height(g.triangles, g.positions, base, bulge)?;
+    Ok((h, Some(kind)))
+}
+
+/// `P + scale Q`.
+fn displaced(base: &[Point3<f64>], bulge: &[Vector3<f64>], scale: f64) -> Vec<Point3<f64>> {
+    base.iter().zip(bulge).map(|(p, q)| p + q * scale).collect()
+}
+
 /// [`FoldOutput::bulge_steepness`] for the bulge height `scale = γ h_v`.
-fn steepness(regions: [&crate::deform::RegionDeformation; 2], scale: f64) -> f64 {
+fn steepness(regions: [&RegionDeformation; 2], scale: f64) -> f64 {
     regions
         .iter()
         .map(|r| {

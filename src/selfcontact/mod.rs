@@ -22,7 +22,8 @@
 //!   "Self-contact: crease cut");
 //! - [`fold`]: one joint folding into itself: contact on the truncated regions, the signed
 //!   direction field `d̄ = σ d̂_12`, both regions' deformation, the blend over `R` and one
-//!   volume solve on the blended positions;
+//!   volume solve on the blended positions, with the [`turn_guard`] scaling the displacement
+//!   back where it would turn faces over;
 //! - [`pass`]: every joint pair of a rig, frame by frame, in sweeps.
 
 pub mod crease;
@@ -32,6 +33,7 @@ pub mod joint_tree;
 pub mod partition;
 pub mod pass;
 pub mod regions;
+pub mod turn_guard;
 
 pub use direction::{skeleton_direction, BoneAxes, DirectionSource, LeafAxisSource};
 pub use joint_tree::{JointTree, TreeSource};

@@ -5,13 +5,17 @@
 //! per pair.
 
 use super::direction::{BoneAxes, DirectionSource, Meeting};
-use super::fold::{resolve_detected, FoldError, FoldOutput, FoldParams, FoldPre, FoldTimings};
+use super::fold::{
+    resolve_detected, FoldError, FoldInput, FoldOutput, FoldParams, FoldPre, FoldTimings,
+};
 use super::regions::{derive_pairs_reporting, RegionOptions};
+use super::turn_guard::TurnReference;
 use super::SelfContactError;
 use crate::mesh::operators::{vertex_normals, NormalWeighting};
 use crate::mesh::WeldedMesh;
 use crate::rig::{Pose, Rig};
-use nalgebra::{Point3, Vector3};
+use crate::skinning::{cofactor, unit_or_zero};
+use nalgebra::{Matrix3, Point3, Vector3};
 
 /// One joint pair of one body, precomputed.
 #[derive(Debug)]
@@ -49,6 +53,9 @@ pub struct SelfPassOutput {
     /// Folds left unresolved because no bulge could keep the volume without a spike
     /// ([`crate::selfcontact::fold::FoldOutput::unbalanced`]).
     pub unbalanced: usize,
+    /// Vertices whose displacement the turn guard scaled back, summed over the folds
+    /// ([`crate::selfcontact::fold::FoldOutput::guarded`]).
+    pub guarded: usize,
 }
 
 /// Self-contact of every joint pair of a rig, precomputed once.
@@ -59,6 +66,10 @@ pub struct SelfContactPass {
     triangles: Vec<Vec<[u32; 3]>>,
     /// Welded rest positions per body, and the rest pose ([`DirectionSource::Motion`]).
     rest: Vec<Vec<Point3<f64>>>,
+    /// Per body: the welded rest normals and each welded vertex's file vertex (its weights),
+    /// for the turn guard's reference ([`SelfContactPass::skinned_normals`]).
+    rest_normals: Vec<Vec<Vector3<f64>>>,
+    representative: Vec<Vec<u32>>,
     rest_pose: Pose,
     passes: usize,
     /// Joint pairs left out when deriving, one reason each ([`derive_pairs_reporting`]).
@@ -132,6 +143,12 @@ impl SelfContactPass {
             params,
             triangles,
             rest: rest.to_vec(),
+            rest_normals: rest
+                .iter()
+                .zip(welded)
+                .map(|(p, w)| vertex_normals(p, &w.triangles, NormalWeighting::Area))
+                .collect(),
+            representative: welded.iter().map(|w| w.representative.clone()).collect(),
             rest_pose: rig.pose_at(None, 0.0),
             passes: DEFAULT_FOLD_PASSES,
             skipped,
@@ -199,10 +216,14 @@ impl SelfContactPass {
             }
         }
         let mut out = SelfPassOutput::default();
+        // The positions before any fold, copied when the first fold is detected: the turn
+        // guard's reference.
+        let mut frame_input = None;
         for _ in 0..self.passes {
             let mut changed = false;
             for fold in &self.folds {
-                changed |= self.sweep_fold(fold, pose, positions, &mut out)?;
+                changed |=
+                    self.sweep_fold(rig, fold, pose, positions, &mut frame_input, &mut out)?;
             }
             // Nothing moved: a further sweep would find the same.
             if !changed {
@@ -232,12 +253,31 @@ impl SelfContactPass {
             .direction(pose, pair, &fold.axes, Some(&meeting))
     }
 
+    /// The turn guard's reference normals of `fold`'s body in this pose (`None` for a body
+    /// without a skin).
+    fn skinned_normals<'s>(
+        &'s self,
+        rig: &'s Rig,
+        pose: &Pose,
+        fold: &Fold,
+    ) -> Option<SkinnedNormals<'s>> {
+        let body = rig.bodies.get(fold.body)?;
+        Some(SkinnedNormals {
+            body,
+            mats: pose.skin_matrices(rig.skins.get(body.skin)?),
+            rest: self.rest_normals.get(fold.body)?,
+            representative: self.representative.get(fold.body)?,
+        })
+    }
+
     /// One fold in one sweep; whether it moved the body.
     fn sweep_fold(
         &self,
+        rig: &Rig,
         fold: &Fold,
         pose: &Pose,
         positions: &mut [Vec<Point3<f64>>],
+        frame_input: &mut Option<Vec<Vec<Point3<f64>>>>,
         out: &mut SelfPassOutput,
     ) -> Result<bool, SelfPassError> {
         let name = &fold.pre.regions.pair.name;
@@ -255,20 +295,31 @@ impl SelfContactPass {
             out.no_direction += 1;
             return Ok(false);
         };
+        let first = frame_input.get_or_insert_with(|| positions.to_vec());
+        let pos = &positions[fold.body];
         let normals = vertex_normals(pos, tris, NormalWeighting::Area);
-        let resolved = resolve_detected(
-            &fold.pre,
-            &detection,
-            pos,
-            &normals,
-            tris,
+        let skinned = self
+            .params
+            .turn_guard
+            .then(|| self.skinned_normals(rig, pose, fold))
+            .flatten();
+        let normal = |v: usize| skinned.as_ref().map_or_else(Vector3::zeros, |s| s.at(v));
+        let input = FoldInput {
+            positions: pos,
+            normals: &normals,
+            triangles: tris,
             direction,
-            &self.params,
-        );
+            turn_reference: skinned.is_some().then_some(TurnReference {
+                positions: &first[fold.body],
+                normal: &normal,
+            }),
+        };
+        let resolved = resolve_detected(&fold.pre, &detection, &input, &self.params);
         let Some(o) = resolved.map_err(fail)? else {
             return Ok(false);
         };
         out.unbalanced += usize::from(o.unbalanced);
+        out.guarded += o.guarded;
         out.timings += o.timings;
         let moved = !o.unbalanced;
         positions[fold.body].clone_from(&o.positions);
@@ -279,5 +330,41 @@ impl SelfContactPass {
             output: o,
         });
         Ok(moved)
+    }
+}
+
+/// The turn guard's reference of one body in one pose: each welded vertex's rest normal (the
+/// file's where it has one, what the skinning carries; else the rest surface's) carried by
+/// its blended joint matrix as linear blend skinning carries it (the cofactor), whatever
+/// skinning made the input: a sign reference per face only.
+struct SkinnedNormals<'s> {
+    body: &'s crate::rig::Body,
+    mats: Vec<nalgebra::Matrix4<f64>>,
+    rest: &'s [Vector3<f64>],
+    representative: &'s [u32],
+}
+
+impl SkinnedNormals<'_> {
+    /// The reference normal of welded vertex `v` (zero if it has none).
+    fn at(&self, v: usize) -> Vector3<f64> {
+        let Some(&rep) = self.representative.get(v) else {
+            return Vector3::zeros();
+        };
+        let rep = rep as usize;
+        let mut linear = Matrix3::zeros();
+        for (j, w) in self.body.weights.row(rep) {
+            if let Some(m) = self.mats.get(j) {
+                linear += m.fixed_view::<3, 3>(0, 0) * w;
+            }
+        }
+        let n = self
+            .body
+            .normals
+            .get(rep)
+            .filter(|n| n.norm_squared() > 0.0)
+            .or_else(|| self.rest.get(v))
+            .copied()
+            .unwrap_or_else(Vector3::zeros);
+        unit_or_zero(cofactor(&linear) * n)
     }
 }
