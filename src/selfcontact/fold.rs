@@ -120,7 +120,12 @@ pub struct FoldParams {
     pub joint_extent: Option<f64>,
     /// Scale the blended displacement back where it would turn a face over (against both its
     /// input normal and the skinning's; [`super::turn_guard`]; needs
-    /// [`FoldInput::turn_reference`]). Not in the paper. Default on.
+    /// [`FoldInput::turn_reference`]). Not in the paper. Default on. Measured (31-frame bends,
+    /// worst frame; CesiumMan summed over 21 frames), without → with: CoR bend 15 → 0 turned
+    /// faces, 5 → 5 penetrating vertices (per frame -3 to +3), temporal ratio 22.1 → 22.4;
+    /// DQS 9 → 0, 4 → 4, 20.8 → 21.3; CesiumMan 225 → 2 turned, 54 → 54 penetrating, largest
+    /// displacement 5.3 → 4.2 h. The LBS capsule, finger, mouth and curled hand never trigger
+    /// it (outputs identical to the bit); its cost is within the run-to-run noise.
     pub turn_guard: bool,
 }
 
