@@ -169,7 +169,15 @@ struct PassBody {
     region: WorkingRegion,
     triangles: Vec<[u32; 3]>,
     deform: DeformParams,
+    /// The rest bounding-box diagonal ([`COLLAPSED`]).
+    rest_diagonal: f64,
 }
+
+/// A body posed smaller than this fraction of its rest size (a bone or the whole rig scaled to
+/// 0, a common way to hide a part) takes no part in contacts that frame: there is nothing to
+/// resolve at that size, and every face of it overlaps every other (measured: two collapsed
+/// 3322-vertex capsules took over three minutes per frame).
+pub const COLLAPSED: f64 = 1e-6;
 
 /// The contact pass of a set of bodies, precomputed once (indices, regions, symbolic
 /// factorizations).
@@ -338,6 +346,7 @@ impl ContactPass {
                     region,
                     triangles: tris.to_vec(),
                     deform,
+                    rest_diagonal: crate::mesh::bbox_diagonal(pos),
                 })
             })
             .collect::<Result<Vec<_>, PassError>>()?;
@@ -476,6 +485,17 @@ impl ContactPass {
         Ok(out)
     }
 
+    /// Whether body `b`, as posed, is at least [`COLLAPSED`] times its rest size.
+    fn in_size(&self, b: usize, posed: &crate::intersect::PosedMesh) -> bool {
+        let Some(rest) = self.bodies.get(b).map(|body| body.rest_diagonal) else {
+            return false;
+        };
+        posed
+            .bvh()
+            .root_box()
+            .is_some_and(|x| (x.max - x.min).norm() >= COLLAPSED * rest)
+    }
+
     /// One position set per body, each with the body's vertex count.
     fn check_counts(&self, positions: &[Vec<Point3<f64>>]) -> Result<(), PassError> {
         if positions.len() != self.bodies.len() {
@@ -509,6 +529,7 @@ impl ContactPass {
     ) -> Result<Vec<ContactSummary>, PassError> {
         let pairs: Vec<(usize, usize)> = (0..posed.len())
             .flat_map(|a| (a + 1..posed.len()).map(move |b| (a, b)))
+            .filter(|&(a, b)| self.in_size(a, &posed[a]) && self.in_size(b, &posed[b]))
             .filter(|&(a, b)| boxes_overlap(&posed[a], &posed[b]))
             .collect();
         let found = pairs

@@ -772,3 +772,30 @@ fn exterior_with_the_default_extent() {
         );
     }
 }
+
+/// A joint scaled to 0: the bent capsule shrunk about a point by 1e-9, and collapsed to one
+/// point, is not resolved (nothing to resolve at that size) and comes back as it went in.
+#[test]
+fn a_fold_scaled_to_nothing_is_left_alone() {
+    let l = load("bending_capsule", 31);
+    let pass = self_pass(&l, &[]);
+    let pose = l.rig.pose_at(Some(0), l.times[30]);
+    let input = l.frame(30);
+    let mut folded = input.clone();
+    assert!(!pass
+        .run(&l.rig, &pose, &mut folded)
+        .expect("runs")
+        .folds
+        .is_empty());
+    let centre = input[0][0];
+    for scale in [1e-9, 0.0] {
+        let shrunk: Vec<Vec<Point3<f64>>> = input
+            .iter()
+            .map(|b| b.iter().map(|p| centre + (p - centre) * scale).collect())
+            .collect();
+        let mut out = shrunk.clone();
+        let res = pass.run(&l.rig, &pose, &mut out).expect("runs");
+        assert!(res.folds.is_empty(), "scale {scale}");
+        assert_eq!(out, shrunk);
+    }
+}

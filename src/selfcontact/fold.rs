@@ -333,6 +333,22 @@ pub struct Detection {
 }
 
 impl FoldPre {
+    /// Whether the shared region is posed smaller than [`crate::pass::COLLAPSED`] times its
+    /// rest size (a joint scaled to 0): such a fold is not resolved (nothing to resolve at that
+    /// size, and all its faces overlap each other).
+    pub fn collapsed(&self, positions: &[Point3<f64>]) -> bool {
+        let mut corners = self
+            .regions
+            .shared
+            .iter()
+            .filter_map(|&v| positions.get(v as usize));
+        let Some(first) = corners.next() else {
+            return true;
+        };
+        let (lo, hi) = corners.fold((*first, *first), |(lo, hi), p| (lo.inf(p), hi.sup(p)));
+        !((hi - lo).norm() >= crate::pass::COLLAPSED * self.joint_size)
+    }
+
     /// Detection with the rest partition: `None` when the fold does not intersect itself at
     /// `positions` (then nothing else of the fold needs computing, not even normals).
     pub fn detect(

@@ -287,6 +287,9 @@ impl SelfContactPass {
             name: name.clone(),
             source,
         };
+        if fold.pre.collapsed(pos) {
+            return Ok(false);
+        }
         // Detection first: a joint that does not fold into itself costs its detection only.
         let Some(detection) = fold.pre.detect(pos, tris).map_err(fail)? else {
             return Ok(false);
