@@ -346,7 +346,9 @@ impl FoldPre {
             return true;
         };
         let (lo, hi) = corners.fold((*first, *first), |(lo, hi), p| (lo.inf(p), hi.sup(p)));
-        !((hi - lo).norm() >= crate::pass::COLLAPSED * self.joint_size)
+        let size = (hi - lo).norm();
+        // NaN counts as collapsed (no size to resolve a fold at).
+        size.is_nan() || size < crate::pass::COLLAPSED * self.joint_size
     }
 
     /// Detection with the rest partition: `None` when the fold does not intersect itself at
