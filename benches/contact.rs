@@ -41,7 +41,7 @@ fn scene(name: &str, passes: usize) -> Scene {
     let pass = ContactPass::new(&bodies, params, vec![])
         .expect("pass")
         .with_passes(passes);
-    let times = frames::sample_times(&rig, Some(0), Some(61));
+    let times = frames::sample_times(&rig, Some(0), Some(61)).expect("frames");
     Scene {
         rig,
         pre,
@@ -139,7 +139,7 @@ fn batch(c: &mut Criterion) {
     let mut g = c.benchmark_group("batch");
     g.measurement_time(Duration::from_secs(6)).sample_size(10);
     let s = scene("fingertips_ball", 1);
-    let times: Vec<f64> = frames::sample_times(&s.rig, Some(0), Some(31));
+    let times: Vec<f64> = frames::sample_times(&s.rig, Some(0), Some(31)).expect("frames");
     for threads in [1, 2] {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)

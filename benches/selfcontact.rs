@@ -41,7 +41,7 @@ fn setup(name: &str, passes: usize) -> (Rig, Precomputed, SelfContactPass, Vec<f
         "{name}: precomputation {:.1} ms",
         1e3 * start.elapsed().as_secs_f64()
     );
-    let times = frames::sample_times(&rig, Some(0), Some(61));
+    let times = frames::sample_times(&rig, Some(0), Some(61)).expect("frames");
     (rig, pre, pass, times)
 }
 
@@ -191,7 +191,7 @@ fn batch(c: &mut Criterion) {
     let mut g = c.benchmark_group("selfcontact batch");
     g.measurement_time(Duration::from_secs(10)).sample_size(10);
     let (rig, pre, pass, _) = setup("finger", 2);
-    let times = frames::sample_times(&rig, Some(0), Some(31));
+    let times = frames::sample_times(&rig, Some(0), Some(31)).expect("frames");
     for threads in [1, 2] {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)

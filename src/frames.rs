@@ -80,16 +80,49 @@ pub fn evaluate(
 /// Default number of frames for an animation: 30 per second, both ends included.
 pub const DEFAULT_FPS: f64 = 30.0;
 
+/// Most frames one call of [`sample_times`] gives (over nine hours at [`DEFAULT_FPS`]): an
+/// animation whose keys span absurd times must not make the default frame count allocate
+/// gigabytes (found by fuzzing: keys up to 1e9 s asked for 3e10 frames and aborted).
+pub const MAX_FRAMES: usize = 1_000_000;
+
+/// Too many frames asked for, or implied by the animation's length.
+#[derive(Debug, thiserror::Error)]
+#[error("{frames} frames ({why}) is more than the {MAX_FRAMES} one run samples: give --frames")]
+pub struct FrameCountError {
+    /// The count asked for or implied (saturated for a non-finite length).
+    pub frames: f64,
+    /// Where it came from.
+    pub why: String,
+}
+
 /// The times to sample: `frames` evenly spaced over the animation (both ends included), by
-/// default at [`DEFAULT_FPS`]; a single rest-pose frame at t = 0 without an animation.
-pub fn sample_times(rig: &Rig, animation: Option<usize>, frames: Option<usize>) -> Vec<f64> {
-    match animation.and_then(|a| rig.animations.get(a)) {
-        None => vec![0.0; frames.unwrap_or(1).max(1)],
-        Some(anim) => {
-            let n = frames.unwrap_or_else(|| (anim.duration() * DEFAULT_FPS).round() as usize + 1);
-            anim.frame_times(n.max(1))
-        }
+/// default at [`DEFAULT_FPS`]; a single rest-pose frame at t = 0 without an animation. At most
+/// [`MAX_FRAMES`].
+pub fn sample_times(
+    rig: &Rig,
+    animation: Option<usize>,
+    frames: Option<usize>,
+) -> Result<Vec<f64>, FrameCountError> {
+    let anim = animation.and_then(|a| rig.animations.get(a));
+    let (n, why) = match (frames, anim) {
+        (Some(n), _) => (n as f64, "asked for".to_owned()),
+        (None, None) => (1.0, String::new()),
+        (None, Some(anim)) => (
+            (anim.duration() * DEFAULT_FPS).round() + 1.0,
+            format!(
+                "the animation lasts {} s, at {DEFAULT_FPS} fps",
+                anim.duration()
+            ),
+        ),
+    };
+    if n.is_nan() || n > MAX_FRAMES as f64 {
+        return Err(FrameCountError { frames: n, why });
     }
+    let n = (n as usize).max(1);
+    Ok(match anim {
+        None => vec![0.0; n],
+        Some(anim) => anim.frame_times(n),
+    })
 }
 
 /// Welded positions of every body at time `t` of `animation` (rest pose for `None`): the input

@@ -418,3 +418,23 @@ fn random_corruptions_never_panic() {
         assert!(err > 0);
     }
 }
+
+/// Keys spanning a billion seconds: the default 30 frames per second would be 3e10 frames
+/// (found by fuzzing: an allocation abort); the frame count is refused with a typed error
+/// naming `--frames`, and a given count still samples the animation.
+#[test]
+fn absurd_animation_lengths_refuse_the_default_frame_count() {
+    use contact_skin::frames::{sample_times, MAX_FRAMES};
+    let mut l = Layout::valid();
+    l.bytes[284..288].copy_from_slice(&1e9f32.to_le_bytes());
+    let mut d = fixed_doc();
+    d["buffers"][0] = doc(&l)["buffers"][0].clone();
+    d["accessors"][6]["max"] = json!([1e9]);
+    let rig = load_json(&d).expect("valid rig");
+    let err = sample_times(&rig, Some(0), None).expect_err("too many frames");
+    assert!(err.to_string().contains("--frames"), "{err}");
+    assert!(sample_times(&rig, Some(0), Some(MAX_FRAMES + 1)).is_err());
+    let times = sample_times(&rig, Some(0), Some(5)).expect("five frames");
+    assert_eq!(times.len(), 5);
+    assert_eq!(times[4], 1e9);
+}

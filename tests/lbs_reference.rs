@@ -611,7 +611,7 @@ fn check_rig(label: &str, rig: &Rig, reference: &Reference) -> Outcome {
     };
     compare_frame(rig, &pre, reference, None, 0, 0.0, &mut out);
     for (a, anim) in reference.animations.iter().enumerate() {
-        let times = frames::sample_times(rig, Some(a), None);
+        let times = frames::sample_times(rig, Some(a), None).expect("frames");
         let (start, end) = anim.range();
         let span = (times[0], times[times.len() - 1]);
         let covers = (span.0 - start).abs() <= 1e-9 && (span.1 - end).abs() <= 1e-9;

@@ -111,7 +111,7 @@ fn obj_frames_follow_the_contract_and_do_not_depend_on_threads() {
     }
     let rig = rig::load(&rig_path).expect("load");
     let pre = Precomputed::new(&rig, Method::Dqs);
-    let times = frames::sample_times(&rig, Some(0), Some(7));
+    let times = frames::sample_times(&rig, Some(0), Some(7)).expect("frames");
     for (i, &t) in times.iter().enumerate() {
         let name = format!("frame_{i:04}.obj");
         let fa = same_bytes(&a, &b, &name);
@@ -175,7 +175,7 @@ fn baked_glb_replays_the_frames() {
     };
     let rig = rig::load(&rig_path).expect("load");
     let pre = Precomputed::new(&rig, Method::Lbs);
-    let times = frames::sample_times(&rig, Some(0), Some(5));
+    let times = frames::sample_times(&rig, Some(0), Some(5)).expect("frames");
     let mesh = gltf.document.meshes().next().expect("mesh");
     let prim = mesh.primitives().next().expect("primitive");
     let base_acc = prim.get(&gltf::Semantic::Positions).expect("POSITION");

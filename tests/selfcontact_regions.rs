@@ -351,7 +351,7 @@ fn skeleton_direction_follows_the_bend() {
     println!("{axes:?}");
     assert_eq!(axes.source, LeafAxisSource::PrincipalAxis);
     let anim = rig.find_animation("bend").expect("bend");
-    let times = frames::sample_times(rig, Some(anim), Some(31));
+    let times = frames::sample_times(rig, Some(anim), Some(31)).expect("frames");
     assert_eq!(times.len(), 31);
     let mut previous: Option<Vector3<f64>> = None;
     let mut steps = Vec::new();

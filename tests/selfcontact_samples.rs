@@ -83,7 +83,7 @@ fn run_sample(rel: &str, path: &Path, params: FoldParams) -> Summary {
     } else {
         Some(0)
     };
-    let times = frames::sample_times(&rig, anim, Some(21));
+    let times = frames::sample_times(&rig, anim, Some(21)).expect("frames");
     let mut sum = Summary {
         pairs: pass.pairs().len(),
         frames: times.len(),

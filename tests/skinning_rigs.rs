@@ -19,7 +19,7 @@ fn volume_change(rig: &Rig, method: Method, animation: &str) -> f64 {
     let pre = Precomputed::new(rig, method);
     let welded = &pre.welded[0];
     assert!(welded.report.is_closed_manifold());
-    let times = frames::sample_times(rig, Some(a), Some(2));
+    let times = frames::sample_times(rig, Some(a), Some(2)).expect("frames");
     let vol = |i: usize| {
         let f = frames::evaluate(rig, &pre, Some(a), i, times[i]);
         signed_volume(&welded.gather(&f.bodies[0].positions), &welded.triangles)

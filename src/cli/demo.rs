@@ -407,6 +407,7 @@ fn timed_frames(
     run: &ContactRun,
 ) -> Result<Vec<(ContactFrame, f64)>, String> {
     frames::sample_times(rig, Some(0), a.frames)
+        .map_err(|e| e.to_string())?
         .par_iter()
         .enumerate()
         .map(|(i, &t)| {
@@ -544,7 +545,7 @@ fn run_scene(
     let mut rows = Vec::new();
     for (ai, anim) in rig.animations.iter().enumerate() {
         let anim_name = anim.name.clone().unwrap_or_else(|| ai.to_string());
-        let times = frames::sample_times(rig, Some(ai), a.frames);
+        let times = frames::sample_times(rig, Some(ai), a.frames)?;
         let timed: Vec<(Frame, f64)> = times
             .par_iter()
             .enumerate()

@@ -224,7 +224,7 @@ pub fn run(a: &Args) -> CliResult {
         return Err(format!("{}: no skinned mesh to pose", a.rig.display()).into());
     }
     let animation = pick_animation(&rig, a.animation.as_deref())?;
-    let times = frames::sample_times(&rig, animation, a.frames);
+    let times = frames::sample_times(&rig, animation, a.frames)?;
     let method = Method::from(a.skinning);
     let t_pre = Instant::now();
     let pre = Precomputed::new(&rig, method);

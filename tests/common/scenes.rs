@@ -44,7 +44,7 @@ pub fn load_generated(name: &str, resolution: u32, frames: usize) -> Loaded {
 
 fn prepare(rig: Rig, frames: usize, method: Method) -> Loaded {
     let pre = Precomputed::new(&rig, method);
-    let times = frames::sample_times(&rig, Some(0), Some(frames));
+    let times = frames::sample_times(&rig, Some(0), Some(frames)).expect("frames");
     let triangles: Vec<Vec<[u32; 3]>> = pre.welded.iter().map(|w| w.triangles.clone()).collect();
     let rest = welded_positions(&rig, &pre, 0.0, None);
     let (sum, n) = rest
