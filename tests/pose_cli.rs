@@ -874,3 +874,32 @@ fn pose_names_the_pairs_the_self_contact_pass_skips() {
     assert_eq!(skipped.len(), 1, "{skipped:?}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A frame that cannot be written (here its file name is taken by a folder) fails the run, and
+/// the frames this run wrote are removed: no sequence with a hole or a missing end is left.
+#[test]
+fn a_failed_run_leaves_no_partial_sequence() {
+    let dir = tmp("partial");
+    std::fs::create_dir_all(dir.join("frame_0005.obj")).expect("blocking folder");
+    let out = Command::new(env!("CARGO_BIN_EXE_contact-skin"))
+        .args(["pose", s(&committed("bending_capsule")), "--out", s(&dir)])
+        .args(["--frames", "8", "--diagnostics", "--threads", "1"])
+        .output()
+        .expect("run");
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("frame_0005.obj") && err.contains("removed"),
+        "{err}"
+    );
+    let left: Vec<String> = std::fs::read_dir(&dir)
+        .expect("dir")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(
+        left,
+        vec!["frame_0005.obj".to_string()],
+        "left behind: {left:?}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -467,6 +467,13 @@ fn print_summary(s: &Summary, a: &Args) -> CliResult {
 
 /// Poses frame `i` (with the contact pass when on) and writes its diagnostics if asked.
 fn compute(job: &Job, i: usize, t: f64) -> Result<(Frame, FrameStats), String> {
+    let (frame, stats) = compute_unchecked(job, i, t)?;
+    output::check_representable(&frame).map_err(|e| format!("frame {i} (t = {t}): {e}"))?;
+    Ok((frame, stats))
+}
+
+/// [`compute`] before the check that its positions can be written.
+fn compute_unchecked(job: &Job, i: usize, t: f64) -> Result<(Frame, FrameStats), String> {
     let t0 = Instant::now();
     let Some(c) = job.contact else {
         let frame = frames::evaluate(job.rig, job.pre, job.animation, i, t);
@@ -524,20 +531,62 @@ fn guard_outputs(job: &Job, times: &[f64]) -> Result<(), String> {
 
 fn write_obj_frames(job: &Job, times: &[f64]) -> Result<Written, BoxError> {
     guard_outputs(job, times)?;
-    let results: Vec<(PathBuf, FrameStats)> = times
+    // After a failure the remaining frames are skipped, and what this run wrote is removed:
+    // no sequence with a hole or a missing end is left behind.
+    let failed = std::sync::atomic::AtomicBool::new(false);
+    let results: Vec<Result<(PathBuf, FrameStats), String>> = times
         .par_iter()
         .enumerate()
         .map(|(i, &t)| {
-            let path = job.args.out.join(obj::frame_file_name(i));
-            let (frame, stats) = compute(job, i, t)?;
-            let text = obj::frame_to_obj(job.rig, &frame, &job.header);
-            output::write_atomic(&path, text.as_bytes())
-                .map_err(|e| format!("{}: {e}", path.display()))?;
-            job.pb.inc(1);
-            Ok((path, stats))
+            if failed.load(std::sync::atomic::Ordering::Relaxed) {
+                return Err(String::new());
+            }
+            let written = write_obj_frame(job, i, t);
+            if written.is_err() {
+                failed.store(true, std::sync::atomic::Ordering::Relaxed);
+            }
+            written
         })
-        .collect::<Result<_, String>>()?;
-    Ok(results.into_iter().unzip())
+        .collect();
+    if results.iter().any(Result::is_err) {
+        // Frames computed (written, or failed after their diagnostics); not those skipped.
+        let touched: Vec<usize> = (0..results.len())
+            .filter(|&i| !matches!(&results[i], Err(e) if e.is_empty()))
+            .collect();
+        let removed = remove_outputs(job, &touched);
+        let first = results
+            .into_iter()
+            .filter_map(Result::err)
+            .find(|e| !e.is_empty())
+            .unwrap_or_default();
+        return Err(format!("{first} (the {removed} file(s) this run wrote were removed)").into());
+    }
+    Ok(results.into_iter().flatten().unzip())
+}
+
+/// Computes frame `i` and writes its OBJ.
+fn write_obj_frame(job: &Job, i: usize, t: f64) -> Result<(PathBuf, FrameStats), String> {
+    let path = job.args.out.join(obj::frame_file_name(i));
+    let (frame, stats) = compute(job, i, t)?;
+    let text = obj::frame_to_obj(job.rig, &frame, &job.header);
+    output::write_atomic(&path, text.as_bytes()).map_err(|e| format!("{}: {e}", path.display()))?;
+    job.pb.inc(1);
+    Ok((path, stats))
+}
+
+/// Removes the files (OBJ and diagnostics) of `frames` after a failed run; how many there were.
+fn remove_outputs(job: &Job, frames: &[usize]) -> usize {
+    let mut removed = 0;
+    for &i in frames {
+        let mut paths = vec![job.args.out.join(obj::frame_file_name(i))];
+        if job.args.diagnostics {
+            paths.push(job.args.out.join(contact::diagnostics_file_name(i)));
+        }
+        for p in paths {
+            removed += usize::from(std::fs::remove_file(p).is_ok());
+        }
+    }
+    removed
 }
 
 fn write_glb(job: &Job, times: &[f64]) -> Result<Written, BoxError> {
@@ -551,7 +600,7 @@ fn write_glb(job: &Job, times: &[f64]) -> Result<Written, BoxError> {
     if a.diagnostics {
         guard_outputs(job, times)?;
     }
-    let computed: Vec<(Frame, FrameStats)> = times
+    let computed: Result<Vec<(Frame, FrameStats)>, String> = times
         .par_iter()
         .enumerate()
         .map(|(i, &t)| {
@@ -559,8 +608,20 @@ fn write_glb(job: &Job, times: &[f64]) -> Result<Written, BoxError> {
             job.pb.inc(1);
             r
         })
-        .collect::<Result<_, String>>()?;
-    let (frames, stats): (Vec<Frame>, Vec<FrameStats>) = computed.into_iter().unzip();
+        .collect();
+    let checked = computed.and_then(|c| {
+        let (frames, stats): (Vec<Frame>, Vec<FrameStats>) = c.into_iter().unzip();
+        glb::check_bakeable(&frames).map(|()| (frames, stats))
+    });
+    let (frames, stats) = match checked {
+        Ok(c) => c,
+        Err(e) if a.diagnostics => {
+            let all: Vec<usize> = (0..times.len()).collect();
+            let removed = remove_outputs(job, &all);
+            return Err(format!("{e} (the {removed} file(s) this run wrote were removed)").into());
+        }
+        Err(e) => return Err(e.into()),
+    };
     let bytes = glb::bake(job.rig, &frames, &stem)?;
     output::write_atomic(&path, &bytes).map_err(|e| format!("{}: {e}", path.display()))?;
     Ok((vec![path], stats))

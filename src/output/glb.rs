@@ -47,6 +47,38 @@ pub fn bake(rig: &Rig, frames: &[Frame], name: &str) -> Result<Vec<u8>, json::Er
     b.finish()
 }
 
+/// Whether `frames` (each already [`super::check_representable`]) can be baked: every morph
+/// delta, the `f32` difference from the first frame, and every key time, from the first
+/// frame's, finite (positions near `±f32::MAX` of opposite signs, or key times spanning more
+/// than `f32`'s range, overflow; found by fuzzing).
+pub fn check_bakeable(frames: &[Frame]) -> Result<(), String> {
+    let Some(first) = frames.first() else {
+        return Ok(());
+    };
+    for f in frames {
+        let dt = (f.time - first.time) as f32;
+        if !dt.is_finite() {
+            return Err(format!(
+                "frame {}: its time {} cannot be a glb key time",
+                f.index, f.time
+            ));
+        }
+        for (b, (body, base)) in f.bodies.iter().zip(&first.bodies).enumerate() {
+            for (v, (p, q)) in body.positions.iter().zip(&base.positions).enumerate() {
+                let finite = (0..3).all(|k| (p[k] as f32 - q[k] as f32).is_finite());
+                if !finite {
+                    return Err(format!(
+                        "frame {} body {b} vertex {v}: its displacement from the first frame \
+                         overflows 32-bit floats",
+                        f.index
+                    ));
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
 fn bake_primitive(
     b: &mut GlbBuilder,
     frames: &[Frame],
