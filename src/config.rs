@@ -828,7 +828,10 @@ impl ContactConfig {
         }
         if let Some(d) = p.direction {
             if !usable_direction(&d) {
-                return Err(self.invalid(format!("{at}.direction"), "is zero or not finite"));
+                return Err(self.invalid(
+                    format!("{at}.direction"),
+                    "is zero, not finite or too long to normalize",
+                ));
             }
         }
         if let Some(keys) = &p.direction_keys {
@@ -861,8 +864,12 @@ impl ContactConfig {
     }
 }
 
+/// A direction that normalizes to a unit vector: finite, non-zero, and a finite non-zero
+/// length (`[1e308, 1e308, 1e308]` overflows it and normalized to zero, failing only mid-run;
+/// found by fuzzing).
 fn usable_direction(d: &[f64; 3]) -> bool {
-    d.iter().all(|x| x.is_finite()) && d.iter().any(|&x| x != 0.0)
+    let length = d.iter().map(|x| x * x).sum::<f64>().sqrt();
+    d.iter().all(|x| x.is_finite()) && length.is_finite() && length > 0.0
 }
 
 // ---------------------------------------------------------------------------------------------

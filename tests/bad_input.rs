@@ -438,3 +438,33 @@ fn absurd_animation_lengths_refuse_the_default_frame_count() {
     assert_eq!(times.len(), 5);
     assert_eq!(times[4], 1e9);
 }
+
+/// A FIFO given as the rig (or named by a buffer URI) would block the read forever (found by
+/// fuzzing): only regular files are read.
+#[cfg(unix)]
+#[test]
+fn a_fifo_is_not_read() {
+    let dir = std::env::temp_dir().join(format!("cs-fifo-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("dir");
+    let fifo = dir.join("rig.gltf");
+    let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+    if !made.is_ok_and(|s| s.success()) {
+        println!("mkfifo unavailable: skipped");
+        return;
+    }
+    let err = rig::load(&fifo).expect_err("refused");
+    assert!(err.to_string().contains("not a regular file"), "{err}");
+    // A buffer URI naming a FIFO in the rig's folder.
+    let mut d = fixed_doc();
+    d["buffers"][0] = json!({"uri": "data.bin", "byteLength": 280});
+    std::process::Command::new("mkfifo")
+        .arg(dir.join("data.bin"))
+        .status()
+        .expect("mkfifo");
+    let gltf = dir.join("buffer.gltf");
+    std::fs::write(&gltf, serde_json::to_vec(&d).expect("json")).expect("write");
+    let err = rig::load(&gltf).expect_err("refused");
+    assert!(err.to_string().contains("not a regular file"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

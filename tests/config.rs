@@ -261,6 +261,14 @@ fn bad_numbers_are_invalid_and_name_the_field() {
         ("[[pair]]\nobjects = [0, 1]\ntau = nan\n", "pair[0].tau"),
         ("[[pair]]\nobjects = [0, 1]\ndirection = [0, 0, 0]\n", "pair[0].direction"),
         (
+            "[[pair]]\nobjects = [0, 1]\ndirection = [1e308, 1e308, 1e308]\n",
+            "pair[0].direction",
+        ),
+        (
+            "[[pair]]\nobjects = [0, 1]\ndirection_keys = [[0, 1e308, 1e308, 0]]\n",
+            "pair[0].direction_keys[0]",
+        ),
+        (
             "[[pair]]\nobjects = [0, 1]\ndirection = [0, 0, 1]\ndirection_keys = [[0, 1, 0, 0]]\n",
             "pair[0].direction_keys",
         ),

@@ -20,19 +20,31 @@ pub fn load(path: &Path) -> Result<Rig, RigError> {
         source,
     };
     let meta = std::fs::metadata(path).map_err(io)?;
-    if meta.len() > MAX_FILE_BYTES {
+    if let Err(message) = readable_size(&meta) {
         return Err(RigError::Format {
             file: path.to_path_buf(),
-            message: format!(
-                "file is {} bytes, above the {} byte limit",
-                meta.len(),
-                MAX_FILE_BYTES
-            ),
+            message,
         });
     }
     let bytes = std::fs::read(path).map_err(io)?;
     let folder = path.parent().map(Path::to_path_buf).unwrap_or_default();
     load_impl(path, &bytes, Some(&folder))
+}
+
+/// A file we read whole: a regular file (a FIFO or a device would block or never end; found by
+/// fuzzing) of at most [`MAX_FILE_BYTES`].
+fn readable_size(meta: &std::fs::Metadata) -> Result<(), String> {
+    if !meta.is_file() {
+        return Err("not a regular file".into());
+    }
+    if meta.len() > MAX_FILE_BYTES {
+        return Err(format!(
+            "file is {} bytes, above the {} byte limit",
+            meta.len(),
+            MAX_FILE_BYTES
+        ));
+    }
+    Ok(())
 }
 
 /// Reads a rig from bytes already in memory. `label` names it in errors; external buffer
@@ -216,8 +228,10 @@ fn resolve_buffers(
                     ))
                 })?;
                 let path = safe_relative_path(folder, uri).map_err(err)?;
-                std::fs::read(&path)
-                    .map_err(|e| err(format!("cannot read '{}': {e}", path.display())))?
+                let cannot = |e: String| err(format!("cannot read '{}': {e}", path.display()));
+                let meta = std::fs::metadata(&path).map_err(|e| cannot(e.to_string()))?;
+                readable_size(&meta).map_err(cannot)?;
+                std::fs::read(&path).map_err(|e| cannot(e.to_string()))?
             }
         };
         if data.len() < buffer.length() {
