@@ -71,7 +71,7 @@ fn load_impl(file: &Path, bytes: &[u8], folder: Option<&Path>) -> Result<Rig, Ri
     let skins = read_skins(&src, doc)?;
     let (bodies, extra_attributes) = read_bodies(&src, doc, &skins, &mut warnings)?;
     let animations = read_animations(&src, doc, &mut warnings)?;
-    Ok(Rig {
+    let rig = Rig {
         source: file.to_path_buf(),
         nodes,
         node_order,
@@ -80,7 +80,34 @@ fn load_impl(file: &Path, bytes: &[u8], folder: Option<&Path>) -> Result<Rig, Ri
         animations,
         extra_attributes,
         warnings,
-    })
+    };
+    check_rest_pose(file, &rig)?;
+    Ok(rig)
+}
+
+/// Every node's world transform and every skinning matrix at rest is finite: each value is
+/// checked as read, but scales of 1e30 down a chain of twelve nodes, or inverse bind matrices
+/// near `f64::MAX`, overflow once composed (found by fuzzing: the rest pose came out NaN).
+fn check_rest_pose(file: &Path, rig: &Rig) -> Result<(), RigError> {
+    let pose = rig.pose_at(None, 0.0);
+    let finite = |m: &Matrix4<f64>| m.iter().all(|x| x.is_finite());
+    if let Some(n) = pose.world.iter().position(|m| !finite(m)) {
+        return Err(invalid(
+            file,
+            format!("nodes[{n}]"),
+            "its world transform at rest overflows (the transforms above it compose to infinity)",
+        ));
+    }
+    for (s, skin) in rig.skins.iter().enumerate() {
+        if let Some(j) = pose.skin_matrices(skin).iter().position(|m| !finite(m)) {
+            return Err(invalid(
+                file,
+                format!("skins[{s}].joints[{j}]"),
+                "its skinning matrix at rest (world × inverse bind) overflows",
+            ));
+        }
+    }
+    Ok(())
 }
 
 fn invalid(file: &Path, element: impl Into<String>, message: impl Into<String>) -> RigError {
