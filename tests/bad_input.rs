@@ -493,3 +493,13 @@ fn transforms_that_overflow_when_composed_are_an_error() {
     // Ten ancestors compose to 1e300: finite, loaded.
     assert!(load_json(&chain(10)).is_ok());
 }
+
+/// A glTF of another major version is refused, not read as 2.0 (found by fuzzing).
+#[test]
+fn other_gltf_versions_are_refused() {
+    let mut d = fixed_doc();
+    d["asset"]["version"] = json!("3.0");
+    expect_err(&d, "not supported");
+    d["asset"]["version"] = json!("2.1");
+    assert!(load_json(&d).is_ok());
+}

@@ -58,6 +58,14 @@ fn load_impl(file: &Path, bytes: &[u8], folder: Option<&Path>) -> Result<Rig, Ri
         file: file.to_path_buf(),
         message: e.to_string(),
     })?;
+    let version = &gltf.document.as_json().asset.version;
+    if version.split('.').next() != Some("2") {
+        return Err(invalid(
+            file,
+            "asset.version",
+            format!("glTF {version} is not supported (2.x only)"),
+        ));
+    }
     validate_json(file, gltf.document.as_json())?;
     check_enums(file, gltf.document.as_json())?;
     let buffers = resolve_buffers(file, &gltf, folder)?;
