@@ -3,9 +3,9 @@
 //!
 //! A face is *turned* when its normal points more than 90° away from both its input normal and
 //! its reference normal (the rest normal carried by the skinning), the criterion of
-//! [`crate::report::metrics::turned_faces`]; the guard stops faces at 85° ([`MARGIN`]). The
+//! [`crate::report::metrics::turned_faces`]; the guard stops faces at 85° (`MARGIN`). The
 //! second reference lets a fold undo the loop that LBS makes at a bent joint (input faces
-//! turned against the skinning) without counting it. Faces still turned after [`ROUNDS`]
+//! turned against the skinning) without counting it. Faces still turned after `ROUNDS`
 //! rounds are left as they are (not met on the rigs and samples). Why: where the crease cut pins a vertex next to a zone vertex sent 2-3 edge lengths
 //! along the mapping direction (DQS and CoR input, whose inner joint folds over along `d̂`;
 //! the coarse torso of a real character), the faces between them turned over; they show as
