@@ -529,39 +529,52 @@ fn guard_outputs(job: &Job, times: &[f64]) -> Result<(), String> {
     Ok(())
 }
 
+/// What became of one frame of [`write_obj_frames`].
+enum Outcome {
+    Written(PathBuf, Box<FrameStats>),
+    /// Failed, after its diagnostics were written if asked for.
+    Failed(String),
+    /// Not computed: another frame had failed.
+    Skipped,
+}
+
 fn write_obj_frames(job: &Job, times: &[f64]) -> Result<Written, BoxError> {
+    use std::sync::atomic::{AtomicBool, Ordering};
     guard_outputs(job, times)?;
     // After a failure the remaining frames are skipped, and what this run wrote is removed:
     // no sequence with a hole or a missing end is left behind.
-    let failed = std::sync::atomic::AtomicBool::new(false);
-    let results: Vec<Result<(PathBuf, FrameStats), String>> = times
+    let failed = AtomicBool::new(false);
+    let outcomes: Vec<Outcome> = times
         .par_iter()
         .enumerate()
         .map(|(i, &t)| {
-            if failed.load(std::sync::atomic::Ordering::Relaxed) {
-                return Err(String::new());
+            if failed.load(Ordering::Relaxed) {
+                return Outcome::Skipped;
             }
-            let written = write_obj_frame(job, i, t);
-            if written.is_err() {
-                failed.store(true, std::sync::atomic::Ordering::Relaxed);
+            match write_obj_frame(job, i, t) {
+                Ok((path, stats)) => Outcome::Written(path, Box::new(stats)),
+                Err(e) => {
+                    failed.store(true, Ordering::Relaxed);
+                    Outcome::Failed(e)
+                }
             }
-            written
         })
         .collect();
-    if results.iter().any(Result::is_err) {
-        // Frames computed (written, or failed after their diagnostics); not those skipped.
-        let touched: Vec<usize> = (0..results.len())
-            .filter(|&i| !matches!(&results[i], Err(e) if e.is_empty()))
-            .collect();
-        let removed = remove_outputs(job, &touched);
-        let first = results
-            .into_iter()
-            .filter_map(Result::err)
-            .find(|e| !e.is_empty())
-            .unwrap_or_default();
-        return Err(format!("{first} (the {removed} file(s) this run wrote were removed)").into());
+    let first_error = outcomes.iter().find_map(|o| match o {
+        Outcome::Failed(e) => Some(e.clone()),
+        _ => None,
+    });
+    if let Some(error) = first_error {
+        let removed = remove_outputs(job, &outcomes);
+        return Err(format!("{error} (the {removed} file(s) this run wrote were removed)").into());
     }
-    Ok(results.into_iter().flatten().unzip())
+    Ok(outcomes
+        .into_iter()
+        .filter_map(|o| match o {
+            Outcome::Written(path, stats) => Some((path, *stats)),
+            _ => None,
+        })
+        .unzip())
 }
 
 /// Computes frame `i` and writes its OBJ.
@@ -574,19 +587,22 @@ fn write_obj_frame(job: &Job, i: usize, t: f64) -> Result<(PathBuf, FrameStats),
     Ok((path, stats))
 }
 
-/// Removes the files (OBJ and diagnostics) of `frames` after a failed run; how many there were.
-fn remove_outputs(job: &Job, frames: &[usize]) -> usize {
-    let mut removed = 0;
-    for &i in frames {
-        let mut paths = vec![job.args.out.join(obj::frame_file_name(i))];
-        if job.args.diagnostics {
+/// Removes what a failed run wrote: the OBJ of each written frame, and the diagnostics of
+/// every frame computed (written or failed); how many files there were.
+fn remove_outputs(job: &Job, outcomes: &[Outcome]) -> usize {
+    let mut paths = Vec::new();
+    for (i, o) in outcomes.iter().enumerate() {
+        if let Outcome::Written(path, _) = o {
+            paths.push(path.clone());
+        }
+        if job.args.diagnostics && !matches!(o, Outcome::Skipped) {
             paths.push(job.args.out.join(contact::diagnostics_file_name(i)));
         }
-        for p in paths {
-            removed += usize::from(std::fs::remove_file(p).is_ok());
-        }
     }
-    removed
+    paths
+        .into_iter()
+        .filter(|p| std::fs::remove_file(p).is_ok())
+        .count()
 }
 
 fn write_glb(job: &Job, times: &[f64]) -> Result<Written, BoxError> {
@@ -616,7 +632,10 @@ fn write_glb(job: &Job, times: &[f64]) -> Result<Written, BoxError> {
     let (frames, stats) = match checked {
         Ok(c) => c,
         Err(e) if a.diagnostics => {
-            let all: Vec<usize> = (0..times.len()).collect();
+            // Every frame was computed (and wrote its diagnostics) or failed.
+            let all: Vec<Outcome> = (0..times.len())
+                .map(|_| Outcome::Failed(String::new()))
+                .collect();
             let removed = remove_outputs(job, &all);
             return Err(format!("{e} (the {removed} file(s) this run wrote were removed)").into());
         }
