@@ -62,12 +62,21 @@ pub struct GuardInput<'a> {
 pub fn displacement_scales(g: &GuardInput, output: &[Point3<f64>]) -> Option<Vec<f64>> {
     let displacement: Vec<Vector3<f64>> = g.input.iter().zip(output).map(|(x, y)| y - x).collect();
     let mut scale = vec![1.0; g.input.len()];
+    // After the first round only the faces with a corner scaled in the round before can turn.
+    let mut changed: Option<Vec<bool>> = None;
     let mut any = false;
     for _ in 0..ROUNDS {
         let mut next = scale.clone();
         let mut turned = false;
         for &f in g.faces {
             let t = g.triangles[f as usize];
+            let moving = |v: &u32| displacement[*v as usize] != Vector3::zeros();
+            let stale = changed
+                .as_ref()
+                .is_some_and(|c| !t.iter().any(|&v| c[v as usize]));
+            if stale || !t.iter().any(moving) {
+                continue;
+            }
             let moved =
                 t.map(|v| g.input[v as usize] + displacement[v as usize] * scale[v as usize]);
             let first = area_vector(t.map(|v| g.reference.positions[v as usize]));
@@ -89,6 +98,7 @@ pub fn displacement_scales(g: &GuardInput, output: &[Point3<f64>]) -> Option<Vec
             break;
         }
         any = true;
+        changed = Some(next.iter().zip(&scale).map(|(a, b)| a != b).collect());
         scale = next;
     }
     any.then_some(scale)
