@@ -182,6 +182,63 @@ fn bench(c: &mut Criterion) {
     }
     g.finish();
     batch(c);
+    turn_guard(c);
+}
+
+/// The turn guard's cost where it acts: the bending capsule skinned with CoR (whose folds it
+/// scales back in most frames), 31 frames, default two sweeps, one thread, with the guard on
+/// and off in the same run.
+fn turn_guard(c: &mut Criterion) {
+    let mut g = c.benchmark_group("selfcontact turn guard");
+    g.measurement_time(Duration::from_secs(10)).sample_size(10);
+    let rig = common::committed_rig("bending_capsule");
+    let pre = Precomputed::new(&rig, Method::Cor);
+    let rest = frames::welded_positions(&rig, &pre, None, 0.0);
+    let times = frames::sample_times(&rig, Some(0), Some(31)).expect("frames");
+    let inputs: Vec<_> = times
+        .iter()
+        .map(|&t| {
+            let pose = rig.pose_at(Some(0), t);
+            (frames::welded_positions(&rig, &pre, Some(0), t), pose)
+        })
+        .collect();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .expect("pool");
+    for turn_guard in [true, false] {
+        let params = FoldParams {
+            turn_guard,
+            ..FoldParams::default()
+        };
+        let pass = SelfContactPass::new(
+            &rig,
+            &pre.welded,
+            &rest,
+            &RegionOptions::default(),
+            params,
+            &[],
+        )
+        .expect("pass");
+        let label = if turn_guard { "on" } else { "off" };
+        g.bench_function(
+            format!("bending_capsule CoR/31 frames/guard {label}"),
+            |b| {
+                b.iter(|| {
+                    pool.install(|| {
+                        inputs
+                            .iter()
+                            .map(|(input, pose)| {
+                                let mut pos = input.clone();
+                                pass.run(&rig, pose, &mut pos).expect("pass").guarded
+                            })
+                            .sum::<usize>()
+                    })
+                })
+            },
+        );
+    }
+    g.finish();
 }
 
 /// Batch evaluation of the finger's animation (skinning + self-contact pass, default two
