@@ -503,3 +503,34 @@ fn other_gltf_versions_are_refused() {
     d["asset"]["version"] = json!("2.1");
     assert!(load_json(&d).is_ok());
 }
+
+/// A GLB whose header declares fewer bytes than the file holds is read by its chunks, with a
+/// warning; the exact length gives none (found by fuzzing: accepted silently).
+#[test]
+fn a_short_glb_length_is_a_warning() {
+    let mut json = serde_json::to_vec(&fixed_doc()).expect("json");
+    while json.len() % 4 != 0 {
+        json.push(b' ');
+    }
+    let glb = |declared: Option<u32>| {
+        let total = 12 + 8 + json.len();
+        let mut b = b"glTF".to_vec();
+        b.extend(2u32.to_le_bytes());
+        b.extend(declared.unwrap_or(total as u32).to_le_bytes());
+        b.extend((json.len() as u32).to_le_bytes());
+        b.extend(b"JSON");
+        b.extend(&json);
+        b
+    };
+    let exact = rig::load_from_bytes(Path::new("test.glb"), &glb(None)).expect("valid glb");
+    assert!(exact.warnings.is_empty(), "{:?}", exact.warnings);
+    let short = rig::load_from_bytes(Path::new("test.glb"), &glb(Some(20))).expect("read");
+    assert!(
+        short
+            .warnings
+            .iter()
+            .any(|w| w.contains("GLB header declares 20 bytes")),
+        "{:?}",
+        short.warnings
+    );
+}

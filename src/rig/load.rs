@@ -75,6 +75,9 @@ fn load_impl(file: &Path, bytes: &[u8], folder: Option<&Path>) -> Result<Rig, Ri
     };
     let doc = &gltf.document;
     let mut warnings = Vec::new();
+    if let Some(w) = glb_length_warning(bytes) {
+        warnings.push(w);
+    }
     let (nodes, node_order) = read_nodes(file, doc)?;
     let skins = read_skins(&src, doc)?;
     let (bodies, extra_attributes) = read_bodies(&src, doc, &skins, &mut warnings)?;
@@ -116,6 +119,20 @@ fn check_rest_pose(file: &Path, rig: &Rig) -> Result<(), RigError> {
         }
     }
     Ok(())
+}
+
+/// A GLB whose header declares fewer bytes than the file holds (the spec's length is the
+/// whole file's; found by fuzzing): the chunks are read as they are, with a warning (a longer
+/// declaration is a format error of the container).
+fn glb_length_warning(bytes: &[u8]) -> Option<String> {
+    let declared = bytes.get(8..12).filter(|_| bytes.starts_with(b"glTF"))?;
+    let declared = u32::from_le_bytes(declared.try_into().ok()?) as usize;
+    (declared < bytes.len()).then(|| {
+        format!(
+            "GLB header declares {declared} bytes but the file holds {}: read by its chunks",
+            bytes.len()
+        )
+    })
 }
 
 fn invalid(file: &Path, element: impl Into<String>, message: impl Into<String>) -> RigError {
