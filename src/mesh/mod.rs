@@ -100,7 +100,7 @@ impl WeldedMesh {
     }
 }
 
-/// Diagonal of the axis-aligned bounding box (0 for no point).
+/// Diagonal of the axis-aligned bounding box (0 for no point; finite whenever its sides are).
 pub fn bbox_diagonal(points: &[Point3<f64>]) -> f64 {
     let Some(first) = points.first() else {
         return 0.0;
@@ -110,7 +110,18 @@ pub fn bbox_diagonal(points: &[Point3<f64>]) -> f64 {
         lo = lo.inf(&p.coords);
         hi = hi.sup(&p.coords);
     }
-    (hi - lo).norm()
+    let d = hi - lo;
+    let plain = d.norm();
+    if plain.is_finite() {
+        return plain;
+    }
+    // Scaled, so that a box whose sides are finite has a finite diagonal (coordinates near
+    // 1e200 overflow the plain norm's squares; found by fuzzing).
+    let scale = d.amax();
+    if !scale.is_finite() {
+        return scale;
+    }
+    scale * (d / scale).norm()
 }
 
 /// Merges points closer than `tol` (in file order: the first point of a cluster represents it).
@@ -217,6 +228,14 @@ pub fn signed_volume(positions: &[Point3<f64>], triangles: &[[u32; 3]]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_diagonal_of_a_huge_box_stays_finite() {
+        let p = [Point3::new(0.0, 0.0, 0.0), Point3::new(3e200, 4e200, 0.0)];
+        assert!((bbox_diagonal(&p) - 5e200).abs() < 1e188);
+        let q = [Point3::new(0.0, 0.0, 0.0), Point3::new(3.0, 4.0, 0.0)];
+        assert_eq!(bbox_diagonal(&q), 5.0);
+    }
 
     /// A unit cube with 4 split vertices per face (24 file vertices), outward CCW.
     fn split_cube() -> (Vec<Point3<f64>>, Vec<[u32; 3]>) {
