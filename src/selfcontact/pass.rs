@@ -322,7 +322,9 @@ impl SelfContactPass {
             return Ok(false);
         };
         out.unbalanced += usize::from(o.unbalanced);
-        out.guarded += o.guarded;
+        if !o.unbalanced {
+            out.guarded += o.guarded;
+        }
         out.timings += o.timings;
         let moved = !o.unbalanced;
         positions[fold.body].clone_from(&o.positions);

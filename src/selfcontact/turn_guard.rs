@@ -12,12 +12,13 @@
 //! dark creases in shading. The guard trades them for vertices left short of the contact
 //! surface (measured in the fold's doc, [`crate::selfcontact::fold::FoldParams::turn_guard`]).
 //!
-//! Per face the scale is the largest `t ∈ [0, 1]` for which the face, its corners at
-//! `x_i + t s_i d_i` (`d_i` the displacement, `s_i` the corner's scale so far), is not turned
-//! (bisection; the input, `t = 0`, never is); each corner keeps the smallest scale of its
-//! faces, and the faces are checked again with the new scales, a few rounds. The scale is a
-//! continuous function of the positions: it leaves 1 only as a face reaches the turning point,
-//! so it adds no pop.
+//! Per face the scale is just short of the first `t ∈ [0, 1]` at which the face, its corners
+//! at `x_i + t s_i d_i` (`d_i` the displacement, `s_i` the corner's scale so far), turns
+//! (sampled, then bisected; the fold's input, `t = 0`, should not be turned, each fold having
+//! been guarded); each corner keeps the smallest scale of its faces, and the faces are checked
+//! again with the new scales, a few rounds. The scale leaves 1 only as a face reaches the
+//! turning point. It follows the first crossing, which moves continuously with the positions
+//! except where two crossings meet, finer than the samples can tell.
 
 use nalgebra::{Point3, Vector3};
 
@@ -30,6 +31,8 @@ const ROUNDS: usize = 8;
 /// without the margin faces within those degrees of turning were let through (bending
 /// capsule, worst frame: 2 with CoR input, 1 with DQS).
 const MARGIN: f64 = 0.087_155_742_747_658_17;
+/// Evenly spaced parameters sampled for a face's first turning point before the bisection.
+const SAMPLES: usize = 16;
 /// Bisection steps for one face's scale (the turning point to `2^-30` of the displacement).
 const BISECTION_STEPS: usize = 30;
 
@@ -50,7 +53,7 @@ pub struct GuardInput<'a> {
     pub triangles: &'a [[u32; 3]],
     /// The faces to check (ids into `triangles`).
     pub faces: &'a [u32],
-    /// Positions before this fold (the displacement starts there; no face of them is
+    /// Positions before this fold (the displacement starts there; no face of them should be
     /// turned against `reference`, each fold having been guarded).
     pub input: &'a [Point3<f64>],
     /// The references.
@@ -88,7 +91,7 @@ pub fn displacement_scales(g: &GuardInput, output: &[Point3<f64>]) -> Option<Vec
                 continue;
             }
             turned = true;
-            let keep = face.largest_untouched_scale();
+            let keep = face.first_turning_scale();
             for v in t {
                 let v = v as usize;
                 next[v] = next[v].min(scale[v] * keep);
@@ -131,14 +134,23 @@ impl GuardedFace {
         below(&n, &self.input_normal) && below(&n, &self.reference)
     }
 
-    /// The largest `t ∈ [0, 1]` found not turned by bisection between the fold's input
-    /// (`t = 0`, not turned: the folds before were guarded) and the full motion (turned); 0
-    /// if the input is turned after all.
-    fn largest_untouched_scale(&self) -> f64 {
+    /// Just short of the first `t ∈ [0, 1]` at which the face turns: the first of
+    /// [`SAMPLES`] evenly spaced parameters that is turned, then bisection between it and the
+    /// one before. Turning is not monotone in `t` (the normal is quadratic in it and must pass
+    /// both references), and a bare bisection could land on a later crossing and jump between
+    /// crossings as the positions move. 0 if the fold's input is turned already (it should
+    /// not be, each fold having been guarded; its corners then keep none of this fold's
+    /// displacement).
+    fn first_turning_scale(&self) -> f64 {
         if self.turned_at(0.0) {
             return 0.0;
         }
-        let (mut lo, mut hi) = (0.0, 1.0);
+        let step = 1.0 / SAMPLES as f64;
+        let first = (1..=SAMPLES)
+            .map(|k| k as f64 * step)
+            .find(|&t| self.turned_at(t))
+            .unwrap_or(1.0);
+        let (mut lo, mut hi) = (first - step, first);
         for _ in 0..BISECTION_STEPS {
             let mid = 0.5 * (lo + hi);
             if self.turned_at(mid) {
