@@ -876,11 +876,14 @@ fn pose_names_the_pairs_the_self_contact_pass_skips() {
 }
 
 /// A frame that cannot be written (here its file name is taken by a folder) fails the run, and
-/// the frames this run wrote are removed: no sequence with a hole or a missing end is left.
+/// the output folder is left as it was: the frames and diagnostics are staged and committed
+/// only when every frame was written, so an earlier run's sequence is neither mixed with this
+/// one's nor holed.
 #[test]
-fn a_failed_run_leaves_no_partial_sequence() {
+fn a_failed_run_leaves_the_folder_as_it_was() {
     let dir = tmp("partial");
     std::fs::create_dir_all(dir.join("frame_0005.obj")).expect("blocking folder");
+    std::fs::write(dir.join("frame_0001.obj"), b"an earlier run").expect("earlier frame");
     let out = Command::new(env!("CARGO_BIN_EXE_contact-skin"))
         .args(["pose", s(&committed("bending_capsule")), "--out", s(&dir)])
         .args(["--frames", "8", "--diagnostics", "--threads", "1"])
@@ -889,17 +892,20 @@ fn a_failed_run_leaves_no_partial_sequence() {
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
-        err.contains("frame_0005.obj") && err.contains("removed"),
+        err.contains("frame_0005.obj") && err.contains("nothing written"),
         "{err}"
     );
-    let left: Vec<String> = std::fs::read_dir(&dir)
+    let mut left: Vec<String> = std::fs::read_dir(&dir)
         .expect("dir")
         .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
         .collect();
+    left.sort();
     assert_eq!(
         left,
-        vec!["frame_0005.obj".to_string()],
+        ["frame_0001.obj", "frame_0005.obj"],
         "left behind: {left:?}"
     );
+    let earlier = std::fs::read(dir.join("frame_0001.obj")).expect("earlier frame");
+    assert_eq!(earlier, b"an earlier run");
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -5,7 +5,7 @@
 use super::contact::{self, median, median_folds, median_stages, BoxError, ContactRun, FoldMs};
 use super::CliResult;
 use contact_skin::frames::{self, Frame, Precomputed};
-use contact_skin::output::{self, glb, obj};
+use contact_skin::output::{self, glb, obj, Staged};
 use contact_skin::pass::StageTimings;
 use contact_skin::rig::{self, Rig};
 use contact_skin::selfcontact::fold::FoldTimings;
@@ -465,15 +465,31 @@ fn print_summary(s: &Summary, a: &Args) -> CliResult {
     Ok(())
 }
 
-/// Poses frame `i` (with the contact pass when on) and writes its diagnostics if asked.
-fn compute(job: &Job, i: usize, t: f64) -> Result<(Frame, FrameStats), String> {
-    let (frame, stats) = compute_unchecked(job, i, t)?;
+/// One frame posed: the frame, its statistics and its diagnostics file staged (if asked).
+type Computed = (Frame, FrameStats, Option<Staged>);
+
+/// Poses frame `i` (with the contact pass when on), checks that it can be written and stages
+/// its diagnostics if asked (committed with the rest of the run).
+fn compute(job: &Job, i: usize, t: f64) -> Result<Computed, String> {
+    let (frame, stats, diagnostics) = compute_unchecked(job, i, t)?;
     output::check_representable(&frame).map_err(|e| format!("frame {i} (t = {t}): {e}"))?;
-    Ok((frame, stats))
+    let staged = match diagnostics {
+        Some(bytes) => {
+            let path = job.args.out.join(contact::diagnostics_file_name(i));
+            Some(Staged::write(&path, &bytes).map_err(|e| format!("{}: {e}", path.display()))?)
+        }
+        None => None,
+    };
+    Ok((frame, stats, staged))
 }
 
-/// [`compute`] before the check that its positions can be written.
-fn compute_unchecked(job: &Job, i: usize, t: f64) -> Result<(Frame, FrameStats), String> {
+/// [`compute`] before the check that its positions can be written: the frame, its
+/// statistics and its diagnostics' bytes (if asked).
+fn compute_unchecked(
+    job: &Job,
+    i: usize,
+    t: f64,
+) -> Result<(Frame, FrameStats, Option<Vec<u8>>), String> {
     let t0 = Instant::now();
     let Some(c) = job.contact else {
         let frame = frames::evaluate(job.rig, job.pre, job.animation, i, t);
@@ -489,16 +505,16 @@ fn compute_unchecked(job: &Job, i: usize, t: f64) -> Result<(Frame, FrameStats),
             folds_unbalanced: 0,
             vertices_guarded: 0,
         };
-        return Ok((frame, stats));
+        return Ok((frame, stats, None));
     };
     let cf = contact::run_frame(job.rig, job.pre, c, job.animation, i, t)?;
     let ms = t0.elapsed().as_secs_f64() * 1e3;
-    if job.args.diagnostics {
-        let path = job.args.out.join(contact::diagnostics_file_name(i));
+    let diagnostics = if job.args.diagnostics {
         let d = contact::diagnostics(job.rig, job.pre, &cf);
-        let bytes = serde_json::to_vec(&d).map_err(|e| format!("{}: {e}", path.display()))?;
-        output::write_atomic(&path, &bytes).map_err(|e| format!("{}: {e}", path.display()))?;
-    }
+        Some(serde_json::to_vec(&d).map_err(|e| format!("frame {i} diagnostics: {e}"))?)
+    } else {
+        None
+    };
     let so = cf.self_output.as_ref();
     let stats = FrameStats {
         ms,
@@ -513,7 +529,7 @@ fn compute_unchecked(job: &Job, i: usize, t: f64) -> Result<(Frame, FrameStats),
         folds_unbalanced: so.map_or(0, |s| s.unbalanced),
         vertices_guarded: so.map_or(0, |s| s.guarded),
     };
-    Ok((cf.frame, stats))
+    Ok((cf.frame, stats, diagnostics))
 }
 
 type Written = (Vec<PathBuf>, Vec<FrameStats>);
@@ -529,80 +545,90 @@ fn guard_outputs(job: &Job, times: &[f64]) -> Result<(), String> {
     Ok(())
 }
 
-/// What became of one frame of [`write_obj_frames`].
-enum Outcome {
-    Written(PathBuf, Box<FrameStats>),
-    /// Failed, after its diagnostics were written if asked for.
-    Failed(String),
-    /// Not computed: another frame had failed.
-    Skipped,
-}
-
-fn write_obj_frames(job: &Job, times: &[f64]) -> Result<Written, BoxError> {
+/// Computes every frame in parallel (`each`), stopping at the first failure: the results in
+/// frame order, or the first error (in frame order) once the frames under way have finished;
+/// what they staged is then dropped, which removes it.
+fn all_frames<T: Send>(
+    times: &[f64],
+    each: impl Fn(usize, f64) -> Result<T, String> + Sync,
+) -> Result<Vec<T>, String> {
     use std::sync::atomic::{AtomicBool, Ordering};
-    guard_outputs(job, times)?;
-    // After a failure the remaining frames are skipped, and what this run wrote is removed:
-    // no sequence with a hole or a missing end is left behind.
     let failed = AtomicBool::new(false);
-    let outcomes: Vec<Outcome> = times
+    let results: Vec<Option<Result<T, String>>> = times
         .par_iter()
         .enumerate()
         .map(|(i, &t)| {
             if failed.load(Ordering::Relaxed) {
-                return Outcome::Skipped;
+                return None;
             }
-            match write_obj_frame(job, i, t) {
-                Ok((path, stats)) => Outcome::Written(path, Box::new(stats)),
-                Err(e) => {
-                    failed.store(true, Ordering::Relaxed);
-                    Outcome::Failed(e)
-                }
+            let r = each(i, t);
+            if r.is_err() {
+                failed.store(true, Ordering::Relaxed);
             }
+            Some(r)
         })
         .collect();
-    let first_error = outcomes.iter().find_map(|o| match o {
-        Outcome::Failed(e) => Some(e.clone()),
-        _ => None,
-    });
-    if let Some(error) = first_error {
-        let removed = remove_outputs(job, &outcomes);
-        return Err(format!("{error} (the {removed} file(s) this run wrote were removed)").into());
+    let mut out = Vec::with_capacity(results.len());
+    let mut first_error = None;
+    for r in results.into_iter().flatten() {
+        match r {
+            Ok(x) => out.push(x),
+            Err(e) => {
+                first_error.get_or_insert(e);
+            }
+        }
     }
-    Ok(outcomes
+    match first_error {
+        Some(e) => Err(e),
+        None => Ok(out),
+    }
+}
+
+/// Commits staged files; the destinations, in order. A destination taken by a folder is
+/// refused before any file is committed (a rename could not replace it).
+fn commit_all(staged: Vec<Staged>) -> Result<Vec<PathBuf>, String> {
+    if let Some(taken) = staged.iter().find(|s| s.path().is_dir()) {
+        return Err(format!(
+            "{}: a folder is in the way (nothing written)",
+            taken.path().display()
+        ));
+    }
+    staged
         .into_iter()
-        .filter_map(|o| match o {
-            Outcome::Written(path, stats) => Some((path, *stats)),
-            _ => None,
+        .map(|s| {
+            let path = s.path().to_path_buf();
+            s.commit()
+                .map(|()| path.clone())
+                .map_err(|e| format!("{}: {e}", path.display()))
         })
-        .unzip())
+        .collect()
 }
 
-/// Computes frame `i` and writes its OBJ.
-fn write_obj_frame(job: &Job, i: usize, t: f64) -> Result<(PathBuf, FrameStats), String> {
-    let path = job.args.out.join(obj::frame_file_name(i));
-    let (frame, stats) = compute(job, i, t)?;
-    let text = obj::frame_to_obj(job.rig, &frame, &job.header);
-    output::write_atomic(&path, text.as_bytes()).map_err(|e| format!("{}: {e}", path.display()))?;
-    job.pb.inc(1);
-    Ok((path, stats))
-}
-
-/// Removes what a failed run wrote: the OBJ of each written frame, and the diagnostics of
-/// every frame computed (written or failed); how many files there were.
-fn remove_outputs(job: &Job, outcomes: &[Outcome]) -> usize {
-    let mut paths = Vec::new();
-    for (i, o) in outcomes.iter().enumerate() {
-        if let Outcome::Written(path, _) = o {
-            paths.push(path.clone());
-        }
-        if job.args.diagnostics && !matches!(o, Outcome::Skipped) {
-            paths.push(job.args.out.join(contact::diagnostics_file_name(i)));
-        }
+/// One OBJ per frame. Every file (and diagnostics file) is staged and the set committed only
+/// when every frame was written: a failed run leaves the output folder as it was, with no
+/// partial or mixed sequence (found by fuzzing: a run failing at its last frame left 75 of 76).
+fn write_obj_frames(job: &Job, times: &[f64]) -> Result<Written, BoxError> {
+    guard_outputs(job, times)?;
+    let frames = all_frames(times, |i, t| {
+        let (frame, stats, diagnostics) = compute(job, i, t)?;
+        let path = job.args.out.join(obj::frame_file_name(i));
+        let text = obj::frame_to_obj(job.rig, &frame, &job.header);
+        let obj = Staged::write(&path, text.as_bytes())
+            .map_err(|e| format!("{}: {e}", path.display()))?;
+        job.pb.inc(1);
+        Ok((obj, diagnostics, stats))
+    })
+    .map_err(|e| format!("{e} (nothing written)"))?;
+    let mut staged = Vec::new();
+    let mut stats = Vec::new();
+    for (obj, diagnostics, s) in frames {
+        staged.push(obj);
+        staged.extend(diagnostics);
+        stats.push(s);
     }
-    paths
-        .into_iter()
-        .filter(|p| std::fs::remove_file(p).is_ok())
-        .count()
+    let mut paths = commit_all(staged)?;
+    paths.retain(|p| p.extension().is_some_and(|e| e == "obj"));
+    Ok((paths, stats))
 }
 
 fn write_glb(job: &Job, times: &[f64]) -> Result<Written, BoxError> {
@@ -616,32 +642,23 @@ fn write_glb(job: &Job, times: &[f64]) -> Result<Written, BoxError> {
     if a.diagnostics {
         guard_outputs(job, times)?;
     }
-    let computed: Result<Vec<(Frame, FrameStats)>, String> = times
-        .par_iter()
-        .enumerate()
-        .map(|(i, &t)| {
-            let r = compute(job, i, t);
-            job.pb.inc(1);
-            r
-        })
-        .collect();
-    let checked = computed.and_then(|c| {
-        let (frames, stats): (Vec<Frame>, Vec<FrameStats>) = c.into_iter().unzip();
-        glb::check_bakeable(&frames).map(|()| (frames, stats))
-    });
-    let (frames, stats) = match checked {
-        Ok(c) => c,
-        Err(e) if a.diagnostics => {
-            // Every frame was computed (and wrote its diagnostics) or failed.
-            let all: Vec<Outcome> = (0..times.len())
-                .map(|_| Outcome::Failed(String::new()))
-                .collect();
-            let removed = remove_outputs(job, &all);
-            return Err(format!("{e} (the {removed} file(s) this run wrote were removed)").into());
-        }
-        Err(e) => return Err(e.into()),
-    };
+    let computed = all_frames(times, |i, t| {
+        let r = compute(job, i, t);
+        job.pb.inc(1);
+        r
+    })
+    .map_err(|e| format!("{e} (nothing written)"))?;
+    let mut frames = Vec::with_capacity(computed.len());
+    let mut stats = Vec::with_capacity(computed.len());
+    let mut staged = Vec::new();
+    for (frame, s, diagnostics) in computed {
+        frames.push(frame);
+        stats.push(s);
+        staged.extend(diagnostics);
+    }
+    glb::check_bakeable(&frames).map_err(|e| format!("{e} (nothing written)"))?;
     let bytes = glb::bake(job.rig, &frames, &stem)?;
-    output::write_atomic(&path, &bytes).map_err(|e| format!("{}: {e}", path.display()))?;
+    staged.push(Staged::write(&path, &bytes).map_err(|e| format!("{}: {e}", path.display()))?);
+    commit_all(staged)?;
     Ok((vec![path], stats))
 }
