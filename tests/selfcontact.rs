@@ -178,7 +178,7 @@ fn bending_capsule_fold() {
 
 /// The same bend with Center-of-Rotation and dual-quaternion skinning as input: resolved with
 /// the volume kept and no face turned (the turn guard), but not yet at the issue's targets (see
-/// the issue note): up to 5 (CoR) and 4 (DQS) penetrating vertices at 120-150°, and the
+/// the issue note): up to 5 penetrating vertices (CoR and DQS) at 120-150°, and the
 /// temporal ratio reaches 22 (the input folds over along `d̂` at the inner elbow, and a vertex
 /// the crease cut moves across jumps by about 2 h). Without the turn guard 15 and 9 faces
 /// turned at the crease's bottom (see [`the_turn_guard_keeps_faces_from_turning`]; before the
