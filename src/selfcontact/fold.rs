@@ -123,7 +123,7 @@ pub struct FoldParams {
     /// [`FoldInput::turn_reference`]). Not in the paper. Default on. Measured (31-frame bends,
     /// worst frame; CesiumMan summed over 21 frames), without → with: CoR bend 15 → 0 turned
     /// faces, 5 → 5 penetrating vertices (per frame -3 to +3), temporal ratio 22.1 → 22.4;
-    /// DQS 9 → 0, 4 → 5, 20.8 → 21.2; CesiumMan 225 → 2 turned, 54 → 54 penetrating, largest
+    /// DQS 9 → 0, 4 → 5, 20.8 → 21.2; CesiumMan 225 → 2 turned, 54 → 53 penetrating, largest
     /// displacement 5.3 → 4.2 h. The LBS capsule, finger, mouth and curled hand never trigger
     /// it (outputs identical to the bit) and pay one pass over the moving faces per fold
     /// (≤ 2 % of a finger frame, alternated runs). Where it acts it costs its rounds and up to
