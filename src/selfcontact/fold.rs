@@ -126,10 +126,10 @@ pub struct FoldParams {
     /// DQS 9 → 0, 4 → 5, 20.8 → 21.2; CesiumMan 225 → 2 turned, 54 → 53 penetrating, largest
     /// displacement 5.3 → 4.2 h. The LBS capsule, finger, mouth and curled hand never trigger
     /// it (outputs identical to the bit) and pay one pass over the moving faces per fold
-    /// (≤ 2 % of a finger frame, alternated runs). Where it acts it costs its rounds and up to
-    /// two more volume solves: CoR bend, 31 frames, two sweeps, one thread, 46 folds, the
+    /// (≤ 2 % of a finger frame, alternated runs). Where it acts it costs its rounds and more
+    /// volume solves (`GUARD_SOLVES`): CoR bend, 31 frames, two sweeps, one thread, 46 folds, the
     /// blend-and-volume step 28 → 80 ms in all (1.1 ms per fold), 4-12 % of the whole in
-    /// alternated runs; `cargo bench --bench selfcontact -- "turn guard"` 767 → 911 ms.
+    /// alternated runs; `cargo bench --bench selfcontact -- "turn guard"` 794 → 924 ms.
     pub turn_guard: bool,
 }
 
