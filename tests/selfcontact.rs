@@ -206,7 +206,7 @@ fn volume_preserving_input(method: Method) {
 
 /// The turn guard on the bend with CoR input, frame by frame from 90° to 150°: without it
 /// faces turn over at the crease's bottom (4 to 15 per frame, measured), with it none, with
-/// 12 to 74 vertices scaled back and at most 5 penetrating vertices per frame either way
+/// 12 to 78 vertices scaled back and at most 5 penetrating vertices per frame either way
 /// (measured per frame: -3 to +3, frame 27 2 → 5, frame 30 3 → 0). The LBS bend and the
 /// finger never trigger it (their outputs are the same to the bit with and without).
 #[test]
