@@ -23,26 +23,28 @@ use std::time::{Duration, Instant};
 mod common;
 
 fn setup(name: &str, passes: usize) -> (Rig, Precomputed, SelfContactPass, Vec<f64>) {
+    let (rig, pre, pass) = setup_with(name, Method::Lbs, FoldParams::default());
+    let times = frames::sample_times(&rig, Some(0), Some(61)).expect("frames");
+    (rig, pre, pass.with_passes(passes), times)
+}
+
+/// The committed rig `name` skinned with `method`, and its self-contact pass with `params`.
+fn setup_with(
+    name: &str,
+    method: Method,
+    params: FoldParams,
+) -> (Rig, Precomputed, SelfContactPass) {
     let rig = common::committed_rig(name);
-    let pre = Precomputed::new(&rig, Method::Lbs);
+    let pre = Precomputed::new(&rig, method);
     let rest = frames::welded_positions(&rig, &pre, None, 0.0);
     let start = Instant::now();
-    let pass = SelfContactPass::new(
-        &rig,
-        &pre.welded,
-        &rest,
-        &RegionOptions::default(),
-        FoldParams::default(),
-        &[],
-    )
-    .expect("pass")
-    .with_passes(passes);
+    let options = RegionOptions::default();
+    let pass = SelfContactPass::new(&rig, &pre.welded, &rest, &options, params, &[]).expect("pass");
     println!(
         "{name}: precomputation {:.1} ms",
         1e3 * start.elapsed().as_secs_f64()
     );
-    let times = frames::sample_times(&rig, Some(0), Some(61)).expect("frames");
-    (rig, pre, pass, times)
+    (rig, pre, pass)
 }
 
 fn breakdown(name: &str, passes: usize, threads: usize) {
@@ -191,17 +193,6 @@ fn bench(c: &mut Criterion) {
 fn turn_guard(c: &mut Criterion) {
     let mut g = c.benchmark_group("selfcontact turn guard");
     g.measurement_time(Duration::from_secs(10)).sample_size(10);
-    let rig = common::committed_rig("bending_capsule");
-    let pre = Precomputed::new(&rig, Method::Cor);
-    let rest = frames::welded_positions(&rig, &pre, None, 0.0);
-    let times = frames::sample_times(&rig, Some(0), Some(31)).expect("frames");
-    let inputs: Vec<_> = times
-        .iter()
-        .map(|&t| {
-            let pose = rig.pose_at(Some(0), t);
-            (frames::welded_positions(&rig, &pre, Some(0), t), pose)
-        })
-        .collect();
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(1)
         .build()
@@ -211,15 +202,15 @@ fn turn_guard(c: &mut Criterion) {
             turn_guard,
             ..FoldParams::default()
         };
-        let pass = SelfContactPass::new(
-            &rig,
-            &pre.welded,
-            &rest,
-            &RegionOptions::default(),
-            params,
-            &[],
-        )
-        .expect("pass");
+        let (rig, pre, pass) = setup_with("bending_capsule", Method::Cor, params);
+        let inputs: Vec<_> = frames::sample_times(&rig, Some(0), Some(31))
+            .expect("frames")
+            .into_iter()
+            .map(|t| {
+                let pose = rig.pose_at(Some(0), t);
+                (frames::welded_positions(&rig, &pre, Some(0), t), pose)
+            })
+            .collect();
         let label = if turn_guard { "on" } else { "off" };
         g.bench_function(
             format!("bending_capsule CoR/31 frames/guard {label}"),

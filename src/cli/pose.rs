@@ -584,24 +584,20 @@ fn all_frames<T: Send>(
     }
 }
 
-/// Commits staged files; the destinations, in order. A destination taken by a folder is
-/// refused before any file is committed (a rename could not replace it).
-fn commit_all(staged: Vec<Staged>) -> Result<Vec<PathBuf>, String> {
+/// Commits staged files. A destination taken by a folder is refused before any file is
+/// committed (a rename could not replace it).
+fn commit_all(staged: Vec<Staged>) -> Result<(), String> {
     if let Some(taken) = staged.iter().find(|s| s.path().is_dir()) {
         return Err(format!(
             "{}: a folder is in the way (nothing written)",
             taken.path().display()
         ));
     }
-    staged
-        .into_iter()
-        .map(|s| {
-            let path = s.path().to_path_buf();
-            s.commit()
-                .map(|()| path.clone())
-                .map_err(|e| format!("{}: {e}", path.display()))
-        })
-        .collect()
+    for s in staged {
+        let path = s.path().to_path_buf();
+        s.commit().map_err(|e| format!("{}: {e}", path.display()))?;
+    }
+    Ok(())
 }
 
 /// One OBJ per frame. Every file (and diagnostics file) is staged and the set committed only
@@ -621,13 +617,14 @@ fn write_obj_frames(job: &Job, times: &[f64]) -> Result<Written, BoxError> {
     .map_err(|e| format!("{e} (nothing written)"))?;
     let mut staged = Vec::new();
     let mut stats = Vec::new();
+    let mut paths = Vec::new();
     for (obj, diagnostics, s) in frames {
+        paths.push(obj.path().to_path_buf());
         staged.push(obj);
         staged.extend(diagnostics);
         stats.push(s);
     }
-    let mut paths = commit_all(staged)?;
-    paths.retain(|p| p.extension().is_some_and(|e| e == "obj"));
+    commit_all(staged)?;
     Ok((paths, stats))
 }
 

@@ -770,12 +770,13 @@ fn blend_and_balance(
             crate::mesh::signed_volume(positions, triangles),
             crate::mesh::signed_volume(&out, triangles),
         ) > UNBALANCED_VOLUME;
-    let steepness = if guarded > 0 {
+    let highest = if guarded > 0 {
         // The bulge as scaled back, not the regions' own (the re-solved `h_v` is higher).
-        guarded_steepness(pre, regions, &bulge, gamma * h)
+        scaled_highest(pre, &bulge)
     } else {
-        steepness(regions, gamma * h)
+        regions.map(|r| r.bulge_unit.iter().map(|q| q.norm()).fold(0.0, f64::max))
     };
+    let steepness = steepness(regions, highest, gamma * h);
     let unbalanced = no_root || steepness > STEEPEST_BULGE;
     if unbalanced {
         out.copy_from_slice(positions);
@@ -800,32 +801,18 @@ fn blend_and_balance(
 /// volume with the extent floor `κ = 3`.
 const GUARD_SOLVES: usize = 4;
 
-/// [`FoldOutput::bulge_steepness`] of the bulge the turn guard scaled back: per region, the
-/// highest blended bulge over its vertices, times `scale = γ h_v`, over its band's width.
-fn guarded_steepness(
-    pre: &FoldPre,
-    regions: [&RegionDeformation; 2],
-    bulge: &[Vector3<f64>],
-    scale: f64,
-) -> f64 {
+/// Per region, the highest blended bulge (per unit `h_v`) over its vertices, as the turn
+/// guard scaled it back.
+fn scaled_highest(pre: &FoldPre, bulge: &[Vector3<f64>]) -> [f64; 2] {
     let r = &pre.regions;
-    [(&r.w1, regions[0]), (&r.w2, regions[1])]
-        .iter()
-        .map(|(inside, region)| {
-            let highest = bulge
-                .iter()
-                .zip(inside.iter())
-                .filter(|(_, &i)| i)
-                .map(|(q, _)| q.norm())
-                .fold(0.0, f64::max);
-            let rise = (scale * highest).abs();
-            if rise == 0.0 {
-                0.0
-            } else {
-                rise / region.stats.extent
-            }
-        })
-        .fold(0.0, f64::max)
+    [&r.w1, &r.w2].map(|inside| {
+        bulge
+            .iter()
+            .zip(inside.iter())
+            .filter(|(_, &i)| i)
+            .map(|(q, _)| q.norm())
+            .fold(0.0, f64::max)
+    })
 }
 
 /// `P` and `Q` blended over `W1 ∪ W2` with `β` (the input and 0 elsewhere).
@@ -870,12 +857,13 @@ fn displaced(base: &[Point3<f64>], bulge: &[Vector3<f64>], scale: f64) -> Vec<Po
     base.iter().zip(bulge).map(|(p, q)| p + q * scale).collect()
 }
 
-/// [`FoldOutput::bulge_steepness`] for the bulge height `scale = γ h_v`.
-fn steepness(regions: [&RegionDeformation; 2], scale: f64) -> f64 {
+/// [`FoldOutput::bulge_steepness`]: per region, its highest bulge per unit `h_v` (`highest`)
+/// times `scale = γ h_v`, over its band's width; the larger of the two.
+fn steepness(regions: [&RegionDeformation; 2], highest: [f64; 2], scale: f64) -> f64 {
     regions
         .iter()
-        .map(|r| {
-            let highest = r.bulge_unit.iter().map(|q| q.norm()).fold(0.0, f64::max);
+        .zip(highest)
+        .map(|(r, highest)| {
             let rise = (scale * highest).abs();
             if rise == 0.0 {
                 0.0
