@@ -804,6 +804,8 @@ fn info_reports_the_joint_pairs_and_their_direction_source() {
     assert_eq!(sc["skipped"].as_array().map(Vec::len), Some(0));
     assert!(p["direction"].is_null());
     assert!(p["shared"].as_u64().expect("shared") > 0);
+    // The configured growth gives the lips a partition of unity: no fallback.
+    assert_eq!(p["grow_rings"].as_u64(), Some(2));
     let size = p["joint_size"].as_f64().expect("joint size");
     let extent = p["extent"].as_f64().expect("extent");
     assert!(

@@ -10,8 +10,8 @@ use contact_skin::mesh::operators::FaceGeometry;
 use contact_skin::mesh::WeldedMesh;
 use contact_skin::rig::{LocalTransform, Rig, SkinWeights};
 use contact_skin::selfcontact::{
-    derive_pairs, pairs_for_joints, partition_of_unity, skeleton_direction, BoneAxes,
-    DirectionSource, LeafAxisSource, PairRegions, RegionOptions, SelfContactError,
+    derive_pairs, derive_pairs_reporting, pairs_for_joints, partition_of_unity, skeleton_direction,
+    BoneAxes, DirectionSource, LeafAxisSource, PairRegions, RegionOptions, SelfContactError,
 };
 use nalgebra::{Point3, UnitQuaternion, Vector3};
 
@@ -592,4 +592,111 @@ fn a_flat_hand_skin_gets_the_tree_of_its_joint_names() {
     }
     let pairs = derive_pairs(&unnamed, &l.pre.welded, &options).expect("no pairs");
     assert!(pairs.is_empty());
+}
+
+/// A short end segment: on the bending capsule reweighted so that only the tip (3 rings around
+/// the vertex farthest along the upper bone) carries the child joint, with its first two rings
+/// on the child alone, the parent's region grown by the default 2 rings swallows the child's
+/// whole region (`W2 \ R` empty: no `β = 0` border). The pair is derived again with fewer rings
+/// and kept, with a valid partition of unity; the same regions as asking for 1 ring outright.
+#[test]
+fn a_short_end_segment_is_derived_with_fewer_rings() {
+    let loaded = scenes::load("bending_capsule", 2);
+    let welded = &loaded.pre.welded;
+    let mut rig = loaded.rig.clone();
+    let skin = &rig.skins[0];
+    let index = |name: &str| {
+        let node = node_index(&rig, name);
+        skin.joints.iter().position(|&j| j == node).expect("joint") as u16
+    };
+    let (lower, upper) = (index("lower"), index("upper"));
+    let pos = rest_positions(&rig, welded, 0);
+    let adj = adjacency(pos.len(), &welded[0].triangles);
+    let axis =
+        rest_joint(&rig, node_index(&rig, "upper")) - rest_joint(&rig, node_index(&rig, "lower"));
+    let tip = (0..pos.len())
+        .max_by(|&a, &b| {
+            pos[a]
+                .coords
+                .dot(&axis)
+                .total_cmp(&pos[b].coords.dot(&axis))
+        })
+        .expect("vertices");
+    // Rings from the tip, breadth first.
+    let mut ring = vec![usize::MAX; pos.len()];
+    ring[tip] = 0;
+    let mut queue = std::collections::VecDeque::from([tip]);
+    while let Some(v) = queue.pop_front() {
+        for &u in &adj[v] {
+            if ring[u as usize] == usize::MAX {
+                ring[u as usize] = ring[v] + 1;
+                queue.push_back(u as usize);
+            }
+        }
+    }
+    let body = &mut rig.bodies[0];
+    let mut weights = SkinWeights::with_capacity(body.vertex_count());
+    for f in 0..body.vertex_count() {
+        match ring[welded[0].to_welded[f] as usize] {
+            0..=1 => weights.push_row(&[(upper, 1.0)]),
+            2..=3 => weights.push_row(&[(lower, 0.5), (upper, 0.5)]),
+            _ => weights.push_row(&[(lower, 1.0)]),
+        }
+    }
+    body.weights = weights;
+
+    let (pairs, skipped) =
+        derive_pairs_reporting(&rig, welded, &RegionOptions::default()).expect("no error");
+    assert!(skipped.is_empty(), "{skipped:?}");
+    assert_eq!(pairs.len(), 1);
+    let p = &pairs[0];
+    println!("{}", p.reason);
+    assert_eq!(p.grow_rings, 1, "the largest growth that leaves W2 \\ R");
+    assert!(
+        p.reason.contains("fewer than the configured 2"),
+        "{}",
+        p.reason
+    );
+    check_partition(p, &adj);
+    // W2 \ R is the tip itself, where β = 0.
+    assert!(p.w2[tip] && !p.w1[tip]);
+    assert_eq!(p.beta[tip], 0.0);
+
+    // Grown by the configured 2 rings from its seeds (the parent's weight from ring 2 on),
+    // W1 covers the whole capsule: no partition of unity.
+    let seed1: Vec<bool> = ring.iter().map(|&r| r >= 2).collect();
+    let seed2: Vec<bool> = ring.iter().map(|&r| r <= 3).collect();
+    let (w1, w2) = (grown(&seed1, &adj, 2), grown(&seed2, &adj, 2));
+    assert!(w1.iter().all(|&x| x));
+    match partition_of_unity(&pos, &welded[0].triangles, &w1, &w2) {
+        Err(SelfContactError::DegenerateSharedRegion { .. }) => {}
+        other => panic!(
+            "expected 2 rings to be degenerate, got {:?}",
+            other.map(|_| ())
+        ),
+    }
+    // Asking for 1 ring outright gives the same regions.
+    let one = RegionOptions {
+        grow_rings: 1,
+        ..Default::default()
+    };
+    let direct = derive_pairs(&rig, welded, &one).expect("pairs");
+    assert_eq!(direct.len(), 1);
+    assert_eq!(direct[0].shared, p.shared);
+    assert_eq!(direct[0].beta, p.beta);
+    assert_eq!(direct[0].grow_rings, 1);
+}
+
+/// `set` grown by `rings` rings over `adj`.
+fn grown(set: &[bool], adj: &[Vec<u32>], rings: usize) -> Vec<bool> {
+    let mut set = set.to_vec();
+    for _ in 0..rings {
+        let before = set.clone();
+        for (v, n) in adj.iter().enumerate() {
+            if n.iter().any(|&u| before[u as usize]) {
+                set[v] = true;
+            }
+        }
+    }
+    set
 }

@@ -74,6 +74,9 @@ struct SelfPairInfo {
     child: String,
     /// Welded vertices of the shared region `R`.
     shared: usize,
+    /// Rings the regions were grown by (fewer than the configured `grow_rings` where that
+    /// growth left `R` without a partition of unity).
+    grow_rings: usize,
     /// How the regions were derived (thresholds, counts, the partition of unity).
     reason: String,
     /// The user direction of `[[self_contact.pair]]`, normalized (`null`: not fixed).
@@ -268,6 +271,7 @@ fn describe_self_contact(
                 parent: node(p.parent_joint),
                 child: node(p.child_joint),
                 shared: r.shared.len(),
+                grow_rings: r.grow_rings,
                 reason: r.reason.clone(),
                 direction: source.fixed(),
                 direction_source: source.label(),

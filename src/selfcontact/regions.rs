@@ -83,6 +83,10 @@ pub struct PairRegions {
     pub beta: Vec<f64>,
     /// What the harmonic solve found.
     pub partition: PartitionStats,
+    /// Rings the two regions were grown by: [`RegionOptions::grow_rings`], or fewer where the
+    /// configured growth left the shared region without a partition of unity (see
+    /// [`derive_pairs`]).
+    pub grow_rings: usize,
     /// Human-readable account: thresholds, counts.
     pub reason: String,
 }
@@ -107,7 +111,8 @@ impl PairRegions {
 /// that is a joint of the same skin and carries weight on the body (helper joints without
 /// weight are skipped), or, for a tracked hand whose joint nodes are not nested, its parent
 /// by the joint names. `welded[b]` is the welded mesh of `rig.bodies[b]`. A pair whose
-/// shared region is empty is skipped; so is a shared region without both Dirichlet borders
+/// shared region is empty is skipped. A shared region without both Dirichlet borders is
+/// derived again with fewer grown rings, down to none, and skipped only when none gives both
 /// ([`derive_pairs_reporting`] says why).
 pub fn derive_pairs(
     rig: &Rig,
@@ -292,7 +297,53 @@ pub(crate) fn node_name(rig: &Rig, node: usize) -> String {
 }
 
 /// The regions of one pair (skin indices `p`, `c`) on body `b`, or `None` when `R` is empty.
+///
+/// Fallback (not in the paper): when the shared region grown by `options.grow_rings` cannot
+/// carry a partition of unity (on a coarse mesh a short end segment, a foot or a tail's tip,
+/// lies wholly within its parent's grown region, so `W2 \ R` is empty), the pair is derived
+/// again with one ring fewer, down to none; the first that works is kept and
+/// [`PairRegions::grow_rings`] says which. The error of the configured growth is returned
+/// when none does.
 fn build_pair(
+    rig: &Rig,
+    b: usize,
+    mesh: &WeldedMesh,
+    skin: &Skin,
+    tree: &JointTree,
+    [p, c]: [usize; 2],
+    options: &RegionOptions,
+) -> Result<Option<PairRegions>, SelfContactError> {
+    let mut first_error = None;
+    for rings in (0..=options.grow_rings).rev() {
+        let grown = RegionOptions {
+            grow_rings: rings,
+            ..*options
+        };
+        match build_pair_grown(rig, b, mesh, skin, tree, [p, c], &grown) {
+            Err(
+                e @ (SelfContactError::DegenerateSharedRegion { .. }
+                | SelfContactError::UnreachedSharedRegion { .. }),
+            ) => {
+                first_error.get_or_insert(e);
+            }
+            Ok(Some(mut regions)) if rings < options.grow_rings => {
+                regions.reason = format!(
+                    "{} (fewer than the configured {}: the shared region had no partition of \
+                     unity with more)",
+                    regions.reason, options.grow_rings
+                );
+                return Ok(Some(regions));
+            }
+            other => return other,
+        }
+    }
+    Err(first_error.unwrap_or_else(|| {
+        SelfContactError::InconsistentInput("no ring count was tried".to_owned())
+    }))
+}
+
+/// [`build_pair`] with exactly `options.grow_rings` rings.
+fn build_pair_grown(
     rig: &Rig,
     b: usize,
     mesh: &WeldedMesh,
@@ -343,6 +394,7 @@ fn build_pair(
         shared,
         beta,
         partition,
+        grow_rings: options.grow_rings,
         reason: String::new(),
     };
     regions.reason = derivation(rig, tree.source, options, seeds, &regions);
