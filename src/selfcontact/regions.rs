@@ -140,7 +140,8 @@ pub fn derive_pairs_reporting(
             let Some(p) = tree.parent[c] else {
                 continue;
             };
-            match build_pair(rig, b, mesh, skin, &tree, [p, c], options) {
+            let src = PairSource::of(rig, b, mesh, skin, &tree);
+            match build_pair(&src, [p, c], options) {
                 Ok(Some(pair)) => out.push(pair),
                 Ok(None) => {}
                 // A pair whose shared region cannot carry a partition of unity (one-sided or
@@ -198,7 +199,8 @@ pub fn pairs_for_joints<S: AsRef<str>>(
             holders += 1;
             check_body(body, mesh, skin)?;
             let tree = JointTree::of_body(rig, body, skin);
-            if let Some(pair) = build_pair(rig, b, mesh, skin, &tree, [p, c], options)? {
+            let src = PairSource::of(rig, b, mesh, skin, &tree);
+            if let Some(pair) = build_pair(&src, [p, c], options)? {
                 out.push(pair);
             }
         }
@@ -296,7 +298,36 @@ pub(crate) fn node_name(rig: &Rig, node: usize) -> String {
         .unwrap_or_else(|| format!("node{node}"))
 }
 
-/// The regions of one pair (skin indices `p`, `c`) on body `b`, or `None` when `R` is empty.
+/// What a pair is derived from: a body of the rig, its welded mesh, its skin and joint tree.
+#[derive(Clone, Copy)]
+struct PairSource<'a> {
+    rig: &'a Rig,
+    body: usize,
+    mesh: &'a WeldedMesh,
+    skin: &'a Skin,
+    tree: &'a JointTree,
+}
+
+impl<'a> PairSource<'a> {
+    fn of(
+        rig: &'a Rig,
+        body: usize,
+        mesh: &'a WeldedMesh,
+        skin: &'a Skin,
+        tree: &'a JointTree,
+    ) -> Self {
+        Self {
+            rig,
+            body,
+            mesh,
+            skin,
+            tree,
+        }
+    }
+}
+
+/// The regions of one pair (skin indices `p`, `c`) on `src`'s body, or `None` when `R` is
+/// empty.
 ///
 /// Fallback (not in the paper): when the shared region grown by `options.grow_rings` cannot
 /// carry a partition of unity (on a coarse mesh a short end segment, a foot or a tail's tip,
@@ -305,11 +336,7 @@ pub(crate) fn node_name(rig: &Rig, node: usize) -> String {
 /// [`PairRegions::grow_rings`] says which. The error of the configured growth is returned
 /// when none does.
 fn build_pair(
-    rig: &Rig,
-    b: usize,
-    mesh: &WeldedMesh,
-    skin: &Skin,
-    tree: &JointTree,
+    src: &PairSource,
     [p, c]: [usize; 2],
     options: &RegionOptions,
 ) -> Result<Option<PairRegions>, SelfContactError> {
@@ -319,7 +346,7 @@ fn build_pair(
             grow_rings: rings,
             ..*options
         };
-        match build_pair_grown(rig, b, mesh, skin, tree, [p, c], &grown) {
+        match build_pair_grown(src, [p, c], &grown) {
             Err(
                 e @ (SelfContactError::DegenerateSharedRegion { .. }
                 | SelfContactError::UnreachedSharedRegion { .. }),
@@ -344,14 +371,17 @@ fn build_pair(
 
 /// [`build_pair`] with exactly `options.grow_rings` rings.
 fn build_pair_grown(
-    rig: &Rig,
-    b: usize,
-    mesh: &WeldedMesh,
-    skin: &Skin,
-    tree: &JointTree,
+    src: &PairSource,
     [p, c]: [usize; 2],
     options: &RegionOptions,
 ) -> Result<Option<PairRegions>, SelfContactError> {
+    let PairSource {
+        rig,
+        body: b,
+        mesh,
+        skin,
+        tree,
+    } = *src;
     let body = &rig.bodies[b];
     let (parent, child) = (skin.joints[p], skin.joints[c]);
     let pair = JointPair {
