@@ -87,7 +87,7 @@ pub const MAX_FRAMES: usize = 1_000_000;
 
 /// Too many frames asked for, or implied by the animation's length.
 #[derive(Debug, thiserror::Error)]
-#[error("{frames} frames ({why}) is more than the {MAX_FRAMES} one run samples: give --frames")]
+#[error("{frames} frames ({why}) is more than the {MAX_FRAMES} one run samples: give --frames {MAX_FRAMES} or fewer")]
 pub struct FrameCountError {
     /// The count asked for or implied (saturated for a non-finite length).
     pub frames: f64,

@@ -8,6 +8,7 @@
 //! self-contact pass the same way, with the inverted faces at the deepest frame.
 
 use super::contact::{self, median, median_folds, median_stages, ContactFrame, ContactRun, FoldMs};
+use super::frame_count;
 use super::CliResult;
 use contact_skin::config;
 use contact_skin::frames::{self, Frame, Precomputed};
@@ -33,9 +34,9 @@ pub struct Args {
     /// Output folder.
     #[arg(long, short, default_value = "demo-out")]
     out: PathBuf,
-    /// Frames per animation (default: 30 per second).
-    #[arg(long, short)]
-    frames: Option<usize>,
+    /// Frames per animation (at least 1; default: 30 per second).
+    #[arg(long, short, value_parser = clap::value_parser!(u64).range(1..))]
+    frames: Option<u64>,
     /// Print the summary as JSON on stdout instead of a table.
     #[arg(long)]
     json: bool,
@@ -406,7 +407,7 @@ fn timed_frames(
     pre: &Precomputed,
     run: &ContactRun,
 ) -> Result<Vec<(ContactFrame, f64)>, String> {
-    frames::sample_times(rig, Some(0), a.frames)
+    frames::sample_times(rig, Some(0), a.frames.map(frame_count))
         .map_err(|e| e.to_string())?
         .par_iter()
         .enumerate()
@@ -545,7 +546,7 @@ fn run_scene(
     let mut rows = Vec::new();
     for (ai, anim) in rig.animations.iter().enumerate() {
         let anim_name = anim.name.clone().unwrap_or_else(|| ai.to_string());
-        let times = frames::sample_times(rig, Some(ai), a.frames)?;
+        let times = frames::sample_times(rig, Some(ai), a.frames.map(frame_count))?;
         let timed: Vec<(Frame, f64)> = times
             .par_iter()
             .enumerate()

@@ -51,6 +51,12 @@ struct GenerateArgs {
     scenes: Vec<String>,
 }
 
+/// A `--frames` count as the sampler takes it (a count beyond `usize` saturates, and the
+/// sampler refuses it as too many).
+fn frame_count(n: u64) -> usize {
+    usize::try_from(n).unwrap_or(usize::MAX)
+}
+
 /// Parses the command line, runs it and returns the process exit code.
 pub fn run() -> i32 {
     let cli = Cli::parse();

@@ -3,6 +3,7 @@
 //! with `--diagnostics`, the passes' fields).
 
 use super::contact::{self, median, median_folds, median_stages, BoxError, ContactRun, FoldMs};
+use super::frame_count;
 use super::CliResult;
 use contact_skin::frames::{self, Frame, Precomputed};
 use contact_skin::output::{self, glb, obj, Staged};
@@ -57,9 +58,9 @@ pub struct Args {
     /// Animation to play, by name or index (default: the first; rest pose if there is none).
     #[arg(long, short)]
     animation: Option<String>,
-    /// Number of frames, evenly spaced over the animation, both ends included (default: 30 per second).
-    #[arg(long, short)]
-    frames: Option<usize>,
+    /// Number of frames, evenly spaced over the animation, both ends included (at least 1; default: 30 per second).
+    #[arg(long, short, value_parser = clap::value_parser!(u64).range(1..))]
+    frames: Option<u64>,
     /// Skinning method feeding the contact pass.
     #[arg(long, value_enum, default_value_t = Skinning::Lbs)]
     skinning: Skinning,
@@ -224,7 +225,7 @@ pub fn run(a: &Args) -> CliResult {
         return Err(format!("{}: no skinned mesh to pose", a.rig.display()).into());
     }
     let animation = pick_animation(&rig, a.animation.as_deref())?;
-    let times = frames::sample_times(&rig, animation, a.frames)?;
+    let times = frames::sample_times(&rig, animation, a.frames.map(frame_count))?;
     let method = Method::from(a.skinning);
     let t_pre = Instant::now();
     let pre = Precomputed::new(&rig, method);
