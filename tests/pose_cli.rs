@@ -275,6 +275,55 @@ fn zero_frames_are_refused() {
     }
 }
 
+/// A second run into the same folder with fewer frames and without `--diagnostics` leaves the
+/// first run's extra frames and diagnostics in place, and names them (JSON `stale_files`, a
+/// warning on stderr); a run that rewrites every file reports none.
+#[test]
+fn an_earlier_runs_frames_are_reported_not_removed() {
+    let dir = tmp("stale");
+    let rig = Path::new(env!("CARGO_MANIFEST_DIR")).join("rigs/bending_capsule.glb");
+    let run = |frames: &str, extra: &[&str]| {
+        let mut args = vec![
+            "pose",
+            s(&rig),
+            "--out",
+            s(&dir),
+            "--frames",
+            frames,
+            "--json",
+        ];
+        args.extend_from_slice(extra);
+        let out = cli(&args);
+        let v: Value = serde_json::from_slice(&out.stdout).expect("json");
+        let stale: Vec<String> = v["stale_files"]
+            .as_array()
+            .expect("stale_files")
+            .iter()
+            .map(|x| x.as_str().expect("name").to_owned())
+            .collect();
+        (stale, String::from_utf8_lossy(&out.stderr).into_owned())
+    };
+    let (stale, err) = run("4", &["--diagnostics"]);
+    assert!(
+        stale.is_empty() && !err.contains("earlier run"),
+        "{stale:?} {err}"
+    );
+    let (stale, err) = run("2", &[]);
+    let mut expect: Vec<String> = (0..4)
+        .map(|i| format!("frame_{i:04}.diag.json"))
+        .chain((2..4).map(|i| format!("frame_{i:04}.obj")))
+        .collect();
+    expect.sort();
+    assert_eq!(stale, expect);
+    assert!(err.contains("6 frame file(s) of an earlier run"), "{err}");
+    for name in &expect {
+        assert!(dir.join(name).exists(), "{name} left in place");
+    }
+    let (stale, _) = run("4", &["--diagnostics"]);
+    assert!(stale.is_empty(), "{stale:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 // ---------------------------------------------------------------------------------------------
 // The contact pass (on by default)
 

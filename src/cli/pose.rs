@@ -112,6 +112,9 @@ struct Summary {
     files: Vec<String>,
     /// Number of `frame_NNNN.diag.json` written.
     diagnostics: usize,
+    /// Frame files in the output folder that this run did not write (`frame_NNNN.obj` of an
+    /// OBJ run, `frame_NNNN.diag.json`): an earlier run's, left in place (a warning).
+    stale_files: Vec<String>,
     precompute_ms: f64,
     total_ms: f64,
     median_frame_ms: f64,
@@ -358,6 +361,7 @@ fn summarize(
         vertices: rig.vertex_count(),
         files: files.iter().map(|p| p.display().to_string()).collect(),
         diagnostics: stats.iter().filter(|s| s.diagnostics).count(),
+        stale_files: stale_files(job.args, times.len()),
         precompute_ms,
         total_ms: start.elapsed().as_secs_f64() * 1e3,
         median_frame_ms: median(stats.iter().map(|s| s.ms).collect()),
@@ -377,6 +381,20 @@ fn summarize(
 }
 
 fn print_summary(s: &Summary, a: &Args) -> CliResult {
+    if let (Some(first), Some(last)) = (s.stale_files.first(), s.stale_files.last()) {
+        eprintln!(
+            "warning: {}: {} frame file(s) of an earlier run left in place ({first}{}), not part \
+             of this run's {} frame(s)",
+            a.out.display(),
+            s.stale_files.len(),
+            if first == last {
+                String::new()
+            } else {
+                format!(" … {last}")
+            },
+            s.frames
+        );
+    }
     if a.json {
         println!("{}", serde_json::to_string_pretty(s)?);
         return Ok(());
@@ -544,6 +562,32 @@ fn guard_outputs(job: &Job, times: &[f64]) -> Result<(), String> {
         }
     }
     Ok(())
+}
+
+/// The frame files of the output folder that a run of `frames` frames did not write, sorted:
+/// `frame_NNNN.obj` (OBJ runs) and `frame_NNNN.diag.json` whose index is past the run's
+/// frames, or that the run did not write at all (no `--diagnostics`).
+fn stale_files(a: &Args, frames: usize) -> Vec<String> {
+    let Ok(entries) = std::fs::read_dir(&a.out) else {
+        return Vec::new();
+    };
+    let index = |name: &str, suffix: &str| -> Option<usize> {
+        let digits = name.strip_prefix("frame_")?.strip_suffix(suffix)?;
+        let all_digits = digits.len() >= 4 && digits.bytes().all(|b| b.is_ascii_digit());
+        all_digits.then(|| digits.parse().ok()).flatten()
+    };
+    let mut stale: Vec<String> = entries
+        .filter_map(|e| e.ok()?.file_name().into_string().ok())
+        .filter(|name| {
+            let obj = index(name, ".obj")
+                .filter(|_| matches!(a.format, Format::Obj))
+                .is_some_and(|i| i >= frames);
+            let diag = index(name, ".diag.json").is_some_and(|i| !a.diagnostics || i >= frames);
+            obj || diag
+        })
+        .collect();
+    stale.sort();
+    stale
 }
 
 /// Computes every frame in parallel (`each`), stopping at the first failure: the results in
