@@ -275,6 +275,28 @@ fn zero_frames_are_refused() {
     }
 }
 
+/// An output path taken by a file is an error naming it (it read only "File exists").
+#[test]
+fn an_output_path_taken_by_a_file_is_named() {
+    let dir = tmp("out-is-a-file");
+    std::fs::create_dir_all(&dir).expect("dir");
+    let file = dir.join("taken");
+    std::fs::write(&file, b"not a folder").expect("write");
+    let rig = Path::new(env!("CARGO_MANIFEST_DIR")).join("rigs/bending_capsule.glb");
+    let out = Command::new(env!("CARGO_BIN_EXE_contact-skin"))
+        .args(["pose", s(&rig), "--out", s(&file), "--frames", "2"])
+        .output()
+        .expect("run");
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains(s(&file)) && err.contains("cannot create the output folder"),
+        "{err}"
+    );
+    assert_eq!(std::fs::read(&file).expect("read"), b"not a folder");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// A second run into the same folder with fewer frames and without `--diagnostics` leaves the
 /// first run's extra frames and diagnostics in place, and names them (JSON `stale_files`, a
 /// warning on stderr); a run that rewrites every file reports none.

@@ -181,7 +181,7 @@ fn default_config(scene: Scene) -> Option<&'static str> {
 
 /// Runs `demo`.
 pub fn run(a: &Args) -> CliResult {
-    std::fs::create_dir_all(a.out.join("rigs"))?;
+    super::create_folder(&a.out.join("rigs"))?;
     let steps: usize = Scene::ALL
         .iter()
         .map(|&s| 3 + self_contact_methods(s).len())
@@ -539,7 +539,7 @@ fn run_scene(
     method: Method,
 ) -> Result<Vec<Row>, Box<dyn std::error::Error + Send + Sync>> {
     let dir = a.out.join(scene.name());
-    std::fs::create_dir_all(&dir)?;
+    super::create_folder(&dir)?;
     let t0 = Instant::now();
     let pre = Precomputed::new(rig, method);
     let precompute_ms = t0.elapsed().as_secs_f64() * 1e3;

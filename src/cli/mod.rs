@@ -51,6 +51,13 @@ struct GenerateArgs {
     scenes: Vec<String>,
 }
 
+/// Creates an output folder (and its parents), naming it in the error (a file in the way
+/// otherwise reads only "File exists").
+fn create_folder(path: &std::path::Path) -> Result<(), String> {
+    std::fs::create_dir_all(path)
+        .map_err(|e| format!("{}: cannot create the output folder: {e}", path.display()))
+}
+
 /// A `--frames` count as the sampler takes it (a count beyond `usize` saturates, and the
 /// sampler refuses it as too many).
 fn frame_count(n: u64) -> usize {
@@ -101,7 +108,7 @@ fn generate(a: &GenerateArgs) -> CliResult {
             .map(|n| Scene::from_name(n).ok_or_else(|| format!("unknown scene '{n}'")))
             .collect::<Result<_, _>>()?
     };
-    std::fs::create_dir_all(&a.out)?;
+    create_folder(&a.out)?;
     for s in list {
         let path = scenes::write(s, a.resolution, &a.out)?;
         println!("wrote {} ({})", path.display(), s.description());

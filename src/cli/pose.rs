@@ -262,7 +262,7 @@ pub fn run(a: &Args) -> CliResult {
             a.rig.display()
         );
     }
-    std::fs::create_dir_all(&a.out)?;
+    super::create_folder(&a.out)?;
     let job = Job {
         args: a,
         rig: &rig,
