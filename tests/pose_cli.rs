@@ -254,15 +254,22 @@ fn bad_rig_gives_a_clear_error_and_exit_code() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// `--frames 0` is refused by the command line (it used to write one frame silently), by
-/// `pose` and by `demo`, and nothing is written.
+/// `--frames 0` (it wrote one frame silently) and `--threads 0` (it ran on one thread) are
+/// usage errors, and nothing is written.
 #[test]
-fn zero_frames_are_refused() {
+fn zero_counts_are_refused() {
     let dir = tmp("zero-frames");
     let rig = Path::new(env!("CARGO_MANIFEST_DIR")).join("rigs/bending_capsule.glb");
-    for args in [
-        vec!["pose", s(&rig), "--out", s(&dir), "--frames", "0"],
-        vec!["demo", "--out", s(&dir), "--frames", "0"],
+    for (flag, args) in [
+        (
+            "--frames",
+            vec!["pose", s(&rig), "--out", s(&dir), "--frames", "0"],
+        ),
+        ("--frames", vec!["demo", "--out", s(&dir), "--frames", "0"]),
+        (
+            "--threads",
+            vec!["--threads", "0", "pose", s(&rig), "--out", s(&dir)],
+        ),
     ] {
         let out = Command::new(env!("CARGO_BIN_EXE_contact-skin"))
             .args(&args)
@@ -270,7 +277,7 @@ fn zero_frames_are_refused() {
             .expect("run");
         assert_eq!(out.status.code(), Some(2), "{args:?}: a usage error");
         let err = String::from_utf8_lossy(&out.stderr);
-        assert!(err.contains("--frames"), "{err}");
+        assert!(err.contains(&format!("'0' for '{flag}")), "{err}");
         assert!(!dir.exists(), "{args:?}: nothing written");
     }
 }

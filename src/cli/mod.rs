@@ -12,9 +12,9 @@ use std::path::PathBuf;
 #[derive(Parser, Debug)]
 #[command(name = "contact-skin", version, about, long_about = None)]
 pub struct Cli {
-    /// Number of worker threads (default: all cores).
-    #[arg(long, global = true)]
-    threads: Option<usize>,
+    /// Number of worker threads, at least 1 (default: all cores).
+    #[arg(long, global = true, value_parser = clap::value_parser!(u64).range(1..=4096))]
+    threads: Option<u64>,
     #[command(subcommand)]
     command: Command,
 }
@@ -69,7 +69,7 @@ pub fn run() -> i32 {
     let cli = Cli::parse();
     if let Some(n) = cli.threads {
         if let Err(e) = rayon::ThreadPoolBuilder::new()
-            .num_threads(n.max(1))
+            .num_threads(n as usize)
             .build_global()
         {
             eprintln!("warning: cannot set the thread count: {e}");
