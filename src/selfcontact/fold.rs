@@ -446,6 +446,13 @@ pub fn resolve_detected(
     let Some(mut contact) = contact else {
         return Ok(None);
     };
+    // Intersecting faces without a contact zone on either side (zero depth: the Quaternius
+    // robot's rigid finger pieces, modeled interpenetrating) leave every vertex where it is:
+    // the crease can extend zones, not create them, and the rest of the fold only moved
+    // vertices by round-off (at most 2.3e-16 on CesiumMan), at 0.6 ms per robot frame.
+    if contact.sides.iter().all(|s| s.zone.vertices.is_empty()) {
+        return Ok(None);
+    }
     if let Some(tree) = tree {
         zones_to_the_crease(pre, &crease.on_w1, positions, normals, tree, &mut contact);
     }
