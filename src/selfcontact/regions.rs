@@ -334,7 +334,7 @@ impl<'a> PairSource<'a> {
 /// lies wholly within its parent's grown region, so `W2 \ R` is empty), the pair is derived
 /// again with one ring fewer, down to none; the first that works is kept and
 /// [`PairRegions::grow_rings`] says which. The error of the configured growth is returned
-/// when none does.
+/// when none does, or when fewer rings leave no shared region at all.
 fn build_pair(
     src: &PairSource,
     [p, c]: [usize; 2],
@@ -361,6 +361,8 @@ fn build_pair(
                 );
                 return Ok(Some(regions));
             }
+            // Fewer rings emptied the shared region: the configured growth's reason stands.
+            Ok(None) if first_error.is_some() => break,
             other => return other,
         }
     }
