@@ -202,6 +202,42 @@ fn baked_glb_replays_the_frames() {
     let _ = std::fs::remove_dir_all(&out);
 }
 
+/// A rig without animation (the WebXR hand) baked with `--frames 5`: the five frames are one
+/// pose at one time, and a glTF animation needs increasing key times (the Khronos validator
+/// rejected the file). The glb holds that one pose without animation, and `pose` says so.
+#[test]
+fn a_rig_without_animation_bakes_one_pose() {
+    let Some(rig_path) = present_sample("WebXRGenericHand/left.glb") else {
+        return;
+    };
+    let out = tmp("glb-static");
+    let run = Command::new(env!("CARGO_BIN_EXE_contact-skin"))
+        .args([
+            "pose",
+            s(&rig_path),
+            "--out",
+            s(&out),
+            "--frames",
+            "5",
+            "--format",
+            "glb",
+        ])
+        .output()
+        .expect("run");
+    assert!(run.status.success());
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(err.contains("4 of 5 frames share their key time"), "{err}");
+    let bytes = std::fs::read(out.join("left.baked.glb")).expect("baked glb");
+    let gltf = gltf::Gltf::from_slice(&bytes).expect("valid glTF");
+    assert_eq!(gltf.document.animations().count(), 0);
+    for mesh in gltf.document.meshes() {
+        for prim in mesh.primitives() {
+            assert_eq!(prim.morph_targets().count(), 0);
+        }
+    }
+    let _ = std::fs::remove_dir_all(&out);
+}
+
 #[test]
 fn pose_never_overwrites_its_input() {
     let dir = tmp("input");

@@ -699,6 +699,16 @@ fn write_glb(job: &Job, times: &[f64]) -> Result<Written, BoxError> {
         staged.extend(diagnostics);
     }
     glb::check_bakeable(&frames).map_err(|e| format!("{e} (nothing written)"))?;
+    let keyed = glb::key_frames(&frames).len();
+    if keyed < frames.len() {
+        eprintln!(
+            "warning: {}: {} of {} frames share their key time with an earlier one (no animation, \
+             or a zero-length one): the glb holds {keyed} pose(s)",
+            path.display(),
+            frames.len() - keyed,
+            frames.len()
+        );
+    }
     let bytes = glb::bake(job.rig, &frames, &stem)?;
     staged.push(Staged::write(&path, &bytes).map_err(|e| format!("{}: {e}", path.display()))?);
     commit_all(staged)?;

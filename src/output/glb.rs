@@ -11,8 +11,32 @@ use gltf_json as json;
 use json::validation::Checked::Valid;
 use std::collections::BTreeMap;
 
-/// Builds the glb bytes of a sequence of frames (at least one).
+/// The frames a glb can key, by position in `frames`: the first, then each whose key time (from
+/// the first, as `f32`) exceeds the last kept one's. A glTF animation's key times must
+/// increase, and one key time holds one pose: a rig without animation, a zero-length one, or
+/// frames closer than `f32` resolves give repeated times (the Khronos validator rejected such
+/// files; found posing the WebXR hands, which have no animation, with `--frames 12`).
+pub fn key_frames(frames: &[Frame]) -> Vec<usize> {
+    let Some(first) = frames.first() else {
+        return Vec::new();
+    };
+    let mut kept = vec![0];
+    let mut last = 0.0f32;
+    for (k, f) in frames.iter().enumerate().skip(1) {
+        let t = (f.time - first.time) as f32;
+        if t > last {
+            kept.push(k);
+            last = t;
+        }
+    }
+    kept
+}
+
+/// Builds the glb bytes of a sequence of frames (at least one); only its [`key_frames`] are
+/// baked.
 pub fn bake(rig: &Rig, frames: &[Frame], name: &str) -> Result<Vec<u8>, json::Error> {
+    let keyed: Vec<&Frame> = key_frames(frames).into_iter().map(|k| &frames[k]).collect();
+    let frames = keyed.as_slice();
     let mut b = GlbBuilder::new();
     let mut nodes = Vec::new();
     for (bi, body) in rig.bodies.iter().enumerate() {
@@ -81,7 +105,7 @@ pub fn check_bakeable(frames: &[Frame]) -> Result<(), String> {
 
 fn bake_primitive(
     b: &mut GlbBuilder,
-    frames: &[Frame],
+    frames: &[&Frame],
     body: usize,
     source: &crate::rig::Body,
     prim: &crate::rig::PrimitiveRange,
@@ -130,7 +154,7 @@ fn bake_primitive(
 
 fn push_weights_animation(
     b: &mut GlbBuilder,
-    frames: &[Frame],
+    frames: &[&Frame],
     nodes: &[json::Index<json::Node>],
     name: &str,
 ) {
@@ -173,4 +197,34 @@ fn push_weights_animation(
         name: Some(name.to_string()),
         samplers: vec![sampler],
     });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn at(times: &[f64]) -> Vec<Frame> {
+        times
+            .iter()
+            .enumerate()
+            .map(|(index, &time)| Frame {
+                index,
+                time,
+                bodies: Vec::new(),
+            })
+            .collect()
+    }
+
+    #[test]
+    fn key_frames_keep_increasing_times_only() {
+        assert_eq!(key_frames(&at(&[])), Vec::<usize>::new());
+        assert_eq!(key_frames(&at(&[0.0, 0.5, 1.0])), vec![0, 1, 2]);
+        // No animation: every frame at t = 0.
+        assert_eq!(key_frames(&at(&[0.0; 4])), vec![0]);
+        // Closer than f32 resolves (its spacing is 0.0625 at 1e6 s), or going back.
+        assert_eq!(
+            key_frames(&at(&[0.0, 1e6, 1e6 + 1e-3, 5e5, 2e6])),
+            vec![0, 1, 4]
+        );
+    }
 }
