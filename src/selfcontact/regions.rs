@@ -149,7 +149,14 @@ pub fn derive_pairs_reporting(
                 // over a band) is skipped, not fatal: the rest of the rig still works.
                 Err(e @ SelfContactError::DegenerateSharedRegion { .. })
                 | Err(e @ SelfContactError::UnreachedSharedRegion { .. }) => {
-                    skipped.push(e.to_string())
+                    skipped.push(if options.grow_rings > 0 {
+                        format!(
+                            "{e} (with {} grown rings, and fewer down to none)",
+                            options.grow_rings
+                        )
+                    } else {
+                        e.to_string()
+                    })
                 }
                 Err(e) => return Err(e),
             }
