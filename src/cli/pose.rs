@@ -577,7 +577,11 @@ fn stale_files(a: &Args, frames: usize) -> Vec<String> {
         all_digits.then(|| digits.parse().ok()).flatten()
     };
     let mut stale: Vec<String> = entries
-        .filter_map(|e| e.ok()?.file_name().into_string().ok())
+        .filter_map(|e| {
+            let e = e.ok()?;
+            e.file_type().ok()?.is_file().then_some(())?;
+            e.file_name().into_string().ok()
+        })
         .filter(|name| {
             let obj = index(name, ".obj")
                 .filter(|_| matches!(a.format, Format::Obj))
