@@ -564,34 +564,44 @@ fn guard_outputs(job: &Job, times: &[f64]) -> Result<(), String> {
     Ok(())
 }
 
-/// The frame files of the output folder that a run of `frames` frames did not write, sorted:
-/// `frame_NNNN.obj` (OBJ runs) and `frame_NNNN.diag.json` whose index is past the run's
-/// frames, or that the run did not write at all (no `--diagnostics`).
+/// The frame files of the output folder that a run of `frames` frames did not write, in frame
+/// order: files named like this program's `frame_NNNN.obj` (OBJ runs only) or
+/// `frame_NNNN.diag.json` that are not among the names this run wrote. Names are compared as
+/// spelled (on a case-insensitive file system a stale `frame_0009.OBJ` goes unreported).
 fn stale_files(a: &Args, frames: usize) -> Vec<String> {
     let Ok(entries) = std::fs::read_dir(&a.out) else {
         return Vec::new();
     };
-    let index = |name: &str, suffix: &str| -> Option<usize> {
-        let digits = name.strip_prefix("frame_")?.strip_suffix(suffix)?;
+    let mut written = std::collections::HashSet::new();
+    for i in 0..frames {
+        if matches!(a.format, Format::Obj) {
+            written.insert(obj::frame_file_name(i));
+        }
+        if a.diagnostics {
+            written.insert(contact::diagnostics_file_name(i));
+        }
+    }
+    let index = |name: &str| -> Option<usize> {
+        let rest = name.strip_prefix("frame_")?;
+        let digits = match a.format {
+            Format::Obj => rest.strip_suffix(".obj"),
+            Format::Glb => None,
+        }
+        .or_else(|| rest.strip_suffix(".diag.json"))?;
         let all_digits = digits.len() >= 4 && digits.bytes().all(|b| b.is_ascii_digit());
         all_digits.then(|| digits.parse().ok()).flatten()
     };
-    let mut stale: Vec<String> = entries
+    let mut stale: Vec<(usize, String)> = entries
         .filter_map(|e| {
             let e = e.ok()?;
             e.file_type().ok()?.is_file().then_some(())?;
-            e.file_name().into_string().ok()
-        })
-        .filter(|name| {
-            let obj = index(name, ".obj")
-                .filter(|_| matches!(a.format, Format::Obj))
-                .is_some_and(|i| i >= frames);
-            let diag = index(name, ".diag.json").is_some_and(|i| !a.diagnostics || i >= frames);
-            obj || diag
+            let name = e.file_name().into_string().ok()?;
+            let i = index(&name)?;
+            (!written.contains(&name)).then_some((i, name))
         })
         .collect();
     stale.sort();
-    stale
+    stale.into_iter().map(|(_, name)| name).collect()
 }
 
 /// Computes every frame in parallel (`each`), stopping at the first failure: the results in
@@ -707,7 +717,8 @@ fn write_glb(job: &Job, times: &[f64]) -> Result<Written, BoxError> {
     if keyed < frames.len() {
         eprintln!(
             "warning: {}: {} of {} frames share their key time with an earlier one (no animation, \
-             or a zero-length one): the glb holds {keyed} pose(s)",
+             a zero-length one, or times closer than 32-bit floats tell apart): the glb holds \
+             {keyed} pose(s)",
             path.display(),
             frames.len() - keyed,
             frames.len()

@@ -415,7 +415,8 @@ fn rest_labels(triangles: &[[u32; 3]], r: &PairRegions) -> Vec<u8> {
 }
 
 /// The fold in one frame, once [`FoldPre::detect`] found it intersecting itself: `None` when
-/// the truncated parts turn out not to be in contact.
+/// the truncated parts turn out not to be in contact, or when neither side has a contact zone
+/// (the time spent finding that out is then not reported in any fold's timings).
 pub fn resolve_detected(
     pre: &FoldPre,
     detection: &Detection,

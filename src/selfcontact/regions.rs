@@ -150,10 +150,7 @@ pub fn derive_pairs_reporting(
                 Err(e @ SelfContactError::DegenerateSharedRegion { .. })
                 | Err(e @ SelfContactError::UnreachedSharedRegion { .. }) => {
                     skipped.push(if options.grow_rings > 0 {
-                        format!(
-                            "{e} (with {} grown rings, and fewer down to none)",
-                            options.grow_rings
-                        )
+                        format!("{e} (with {} grown rings, and fewer)", options.grow_rings)
                     } else {
                         e.to_string()
                     })
@@ -166,9 +163,10 @@ pub fn derive_pairs_reporting(
 }
 
 /// Working regions of the joint pairs a rig config names, as `(parent, child)` node names
-/// (same construction as [`derive_pairs`]). Each named pair gives one entry per body whose
-/// skin holds both joints and whose shared region is not empty, in the given order, then body
-/// order; a named pair that gives nothing is an error.
+/// (same construction as [`derive_pairs`], fewer-rings fallback included: the error of a
+/// pair no growth saves is the configured growth's). Each named pair gives one entry per body
+/// whose skin holds both joints and whose shared region is not empty, in the given order, then
+/// body order; a named pair that gives nothing is an error.
 pub fn pairs_for_joints<S: AsRef<str>>(
     rig: &Rig,
     welded: &[WeldedMesh],
@@ -347,20 +345,18 @@ fn build_pair(
     [p, c]: [usize; 2],
     options: &RegionOptions,
 ) -> Result<Option<PairRegions>, SelfContactError> {
-    let mut first_error = None;
-    for rings in (0..=options.grow_rings).rev() {
-        let grown = RegionOptions {
+    let seeded = seed_pair(src, [p, c], options.threshold)?;
+    let configured = match grown_pair(src, &seeded, options) {
+        Err(e) if no_partition(&e) => e,
+        other => return other,
+    };
+    for rings in (0..options.grow_rings).rev() {
+        let fewer = RegionOptions {
             grow_rings: rings,
             ..*options
         };
-        match build_pair_grown(src, [p, c], &grown) {
-            Err(
-                e @ (SelfContactError::DegenerateSharedRegion { .. }
-                | SelfContactError::UnreachedSharedRegion { .. }),
-            ) => {
-                first_error.get_or_insert(e);
-            }
-            Ok(Some(mut regions)) if rings < options.grow_rings => {
+        match grown_pair(src, &seeded, &fewer) {
+            Ok(Some(mut regions)) => {
                 regions.reason = format!(
                     "{} (fewer than the configured {}: the shared region had no partition of \
                      unity with more)",
@@ -368,22 +364,40 @@ fn build_pair(
                 );
                 return Ok(Some(regions));
             }
+            Err(e) if no_partition(&e) => {}
             // Fewer rings emptied the shared region: the configured growth's reason stands.
-            Ok(None) if first_error.is_some() => break,
-            other => return other,
+            Ok(None) => break,
+            Err(e) => return Err(e),
         }
     }
-    Err(first_error.unwrap_or_else(|| {
-        SelfContactError::InconsistentInput("no ring count was tried".to_owned())
-    }))
+    Err(configured)
 }
 
-/// [`build_pair`] with exactly `options.grow_rings` rings.
-fn build_pair_grown(
+/// Whether `e` says a shared region cannot carry a partition of unity (the cases the ring
+/// fallback of [`build_pair`] retries).
+fn no_partition(e: &SelfContactError) -> bool {
+    matches!(
+        e,
+        SelfContactError::DegenerateSharedRegion { .. }
+            | SelfContactError::UnreachedSharedRegion { .. }
+    )
+}
+
+/// What every growth of one pair starts from: its joints, the weight seeds of W1 and W2, the
+/// welded mesh's adjacency and rest positions.
+struct SeededPair {
+    pair: JointPair,
+    seeds: [Vec<bool>; 2],
+    adjacency: Vec<Vec<u32>>,
+    rest: Vec<Point3<f64>>,
+}
+
+/// The pair's joints and seeds (skin indices `p`, `c`) at `threshold`.
+fn seed_pair(
     src: &PairSource,
     [p, c]: [usize; 2],
-    options: &RegionOptions,
-) -> Result<Option<PairRegions>, SelfContactError> {
+    threshold: f64,
+) -> Result<SeededPair, SelfContactError> {
     let PairSource {
         rig,
         body: b,
@@ -406,14 +420,28 @@ fn build_pair_grown(
         ),
     };
     let below = tree.below(rig, skin, c);
+    let (seed1, seed2) = weight_seeds(body, mesh, p, &below, threshold);
+    Ok(SeededPair {
+        pair,
+        seeds: [seed1, seed2],
+        adjacency: vertex_adjacency(mesh.vertex_count(), &mesh.triangles)?,
+        rest: welded_rest(body, mesh)?,
+    })
+}
+
+/// The regions of a seeded pair grown by exactly `options.grow_rings` rings, or `None` when
+/// `R` is empty.
+fn grown_pair(
+    src: &PairSource,
+    seeded: &SeededPair,
+    options: &RegionOptions,
+) -> Result<Option<PairRegions>, SelfContactError> {
+    let mesh = src.mesh;
     let n = mesh.vertex_count();
-    let (seed1, seed2) = weight_seeds(body, mesh, p, &below, options.threshold);
-    let seeds = [count(&seed1), count(&seed2)];
-    let adjacency = vertex_adjacency(n, &mesh.triangles)?;
-    let grown1 = grow(seed1, &adjacency, options.grow_rings);
-    let grown2 = grow(seed2, &adjacency, options.grow_rings);
-    let (w1_faces, w1) = as_faces(&mesh.triangles, &grown1);
-    let (w2_faces, w2) = as_faces(&mesh.triangles, &grown2);
+    let [(w1_faces, w1), (w2_faces, w2)] = seeded.seeds.each_ref().map(|seed| {
+        let grown = grow(seed.clone(), &seeded.adjacency, options.grow_rings);
+        as_faces(&mesh.triangles, &grown)
+    });
     let shared: Vec<u32> = (0..n)
         .filter(|&v| w1[v] && w2[v])
         .map(|v| v as u32)
@@ -421,11 +449,10 @@ fn build_pair_grown(
     if shared.is_empty() {
         return Ok(None);
     }
-    let rest = welded_rest(body, mesh)?;
-    let (beta, partition) = partition_of_unity_with_stats(&rest, &mesh.triangles, &w1, &w2)
-        .map_err(|e| e.for_pair(&pair.name))?;
+    let (beta, partition) = partition_of_unity_with_stats(&seeded.rest, &mesh.triangles, &w1, &w2)
+        .map_err(|e| e.for_pair(&seeded.pair.name))?;
     let mut regions = PairRegions {
-        pair,
+        pair: seeded.pair.clone(),
         w1_faces,
         w2_faces,
         w1,
@@ -436,7 +463,8 @@ fn build_pair_grown(
         grow_rings: options.grow_rings,
         reason: String::new(),
     };
-    regions.reason = derivation(rig, tree.source, options, seeds, &regions);
+    let seeds = seeded.seeds.each_ref().map(|s| count(s));
+    regions.reason = derivation(src.rig, src.tree.source, options, seeds, &regions);
     Ok(Some(regions))
 }
 
