@@ -154,7 +154,7 @@ fn baked_glb_replays_the_frames() {
     use contact_skin::rig::accessor::{read, Source};
     let rig_path = samples().join("RiggedFigure/RiggedFigure.glb");
     let out = tmp("glb");
-    cli(&[
+    let run = cli(&[
         "pose",
         rig_path.to_str().expect("utf8"),
         "--out",
@@ -165,6 +165,8 @@ fn baked_glb_replays_the_frames() {
         "glb",
         "--json",
     ]);
+    let summary: Value = serde_json::from_slice(&run.stdout).expect("json");
+    assert_eq!(summary["baked_poses"].as_u64(), Some(5));
     let bytes = std::fs::read(out.join("RiggedFigure.baked.glb")).expect("baked glb");
     let gltf = gltf::Gltf::from_slice(&bytes).expect("valid glTF");
     let blob = gltf.blob.clone().expect("binary chunk");
@@ -271,12 +273,15 @@ fn a_rig_without_animation_bakes_one_pose() {
             "5",
             "--format",
             "glb",
+            "--json",
         ])
         .output()
         .expect("run");
     assert!(run.status.success());
     let err = String::from_utf8_lossy(&run.stderr);
     assert!(err.contains("4 of 5 frames share their key time"), "{err}");
+    let summary: Value = serde_json::from_slice(&run.stdout).expect("json");
+    assert_eq!(summary["baked_poses"].as_u64(), Some(1));
     let bytes = std::fs::read(out.join("left.baked.glb")).expect("baked glb");
     let gltf = gltf::Gltf::from_slice(&bytes).expect("valid glTF");
     assert_eq!(gltf.document.animations().count(), 0);

@@ -112,6 +112,8 @@ struct Summary {
     files: Vec<String>,
     /// Number of `frame_NNNN.diag.json` written.
     diagnostics: usize,
+    /// Poses the baked glb holds (`--format glb`; frames sharing a key time are baked once).
+    baked_poses: Option<usize>,
     /// Frame files in the output folder that this run did not write (`frame_NNNN.obj` of an
     /// OBJ run, `frame_NNNN.diag.json`): an earlier run's, left in place (a warning).
     stale_files: Vec<String>,
@@ -362,6 +364,7 @@ fn summarize(
         files: files.iter().map(|p| p.display().to_string()).collect(),
         diagnostics: stats.iter().filter(|s| s.diagnostics).count(),
         stale_files: stale_files(job.args, times.len()),
+        baked_poses: matches!(job.args.format, Format::Glb).then(|| glb::key_times(times).len()),
         precompute_ms,
         total_ms: start.elapsed().as_secs_f64() * 1e3,
         median_frame_ms: median(stats.iter().map(|s| s.ms).collect()),

@@ -17,13 +17,18 @@ use std::collections::BTreeMap;
 /// frames closer than `f32` resolves give repeated times (the Khronos validator rejected such
 /// files; found posing the WebXR hands, which have no animation, with `--frames 12`).
 pub fn key_frames(frames: &[Frame]) -> Vec<usize> {
-    let Some(first) = frames.first() else {
+    key_times(&frames.iter().map(|f| f.time).collect::<Vec<_>>())
+}
+
+/// [`key_frames`] of frames at `times`.
+pub fn key_times(times: &[f64]) -> Vec<usize> {
+    let Some(&first) = times.first() else {
         return Vec::new();
     };
     let mut kept = vec![0];
     let mut last = 0.0f32;
-    for (k, f) in frames.iter().enumerate().skip(1) {
-        let t = (f.time - first.time) as f32;
+    for (k, &time) in times.iter().enumerate().skip(1) {
+        let t = (time - first) as f32;
         if t > last {
             kept.push(k);
             last = t;
