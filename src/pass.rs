@@ -527,9 +527,12 @@ impl ContactPass {
         posed: &[crate::intersect::PosedMesh],
         time: f64,
     ) -> Result<Vec<ContactSummary>, PassError> {
+        let sized: Vec<bool> = (0..posed.len())
+            .map(|b| self.in_size(b, &posed[b]))
+            .collect();
         let pairs: Vec<(usize, usize)> = (0..posed.len())
             .flat_map(|a| (a + 1..posed.len()).map(move |b| (a, b)))
-            .filter(|&(a, b)| self.in_size(a, &posed[a]) && self.in_size(b, &posed[b]))
+            .filter(|&(a, b)| sized[a] && sized[b])
             .filter(|&(a, b)| boxes_overlap(&posed[a], &posed[b]))
             .collect();
         let found = pairs

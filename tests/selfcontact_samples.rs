@@ -9,7 +9,7 @@ use contact_skin::mesh::operators::{mean_edge_length, vertex_normals, NormalWeig
 use contact_skin::report::metrics;
 use contact_skin::rig;
 use contact_skin::selfcontact::fold::FoldParams;
-use contact_skin::selfcontact::pass::SelfContactPass;
+use contact_skin::selfcontact::pass::{SelfContactPass, SelfPassOutput};
 use contact_skin::selfcontact::{derive_pairs_reporting, RegionOptions};
 use contact_skin::skinning::Method;
 use std::path::Path;
@@ -49,6 +49,33 @@ struct Prepared {
     pass: SelfContactPass,
 }
 
+/// One posed frame through the pass: the skinned frame, its welded input, the pass's output.
+struct Passed {
+    frame: frames::Frame,
+    input: Vec<Vec<nalgebra::Point3<f64>>>,
+    out: Vec<Vec<nalgebra::Point3<f64>>>,
+    report: SelfPassOutput,
+}
+
+impl Prepared {
+    /// Frame `k` of `anim`, at time `t`, through the self-contact pass.
+    fn pass_frame(&self, anim: Option<usize>, k: usize, t: f64) -> Passed {
+        let frame = frames::evaluate(&self.rig, &self.pre, anim, k, t);
+        let input = frame.welded(&self.pre);
+        let mut out = input.clone();
+        let report = self
+            .pass
+            .run(&self.rig, &self.rig.pose_at(anim, t), &mut out)
+            .expect("self-contact runs");
+        Passed {
+            frame,
+            input,
+            out,
+            report,
+        }
+    }
+}
+
 fn prepare(path: &Path, params: FoldParams) -> Prepared {
     let rig = rig::load(path).expect("sample loads");
     let pre = Precomputed::new(&rig, Method::Lbs);
@@ -72,18 +99,20 @@ fn prepare(path: &Path, params: FoldParams) -> Prepared {
 
 /// Runs the self-contact pass with `params` on the character `rel` at `path` (LBS input).
 fn run_sample(rel: &str, path: &Path, params: FoldParams) -> Summary {
+    let prepared = prepare(path, params);
     let Prepared {
         rig,
         pre,
         rest,
         pass,
-    } = prepare(path, params);
+        ..
+    } = &prepared;
     let anim = if rig.animations.is_empty() {
         None
     } else {
         Some(0)
     };
-    let times = frames::sample_times(&rig, anim, Some(21)).expect("frames");
+    let times = frames::sample_times(rig, anim, Some(21)).expect("frames");
     let mut sum = Summary {
         pairs: pass.pairs().len(),
         frames: times.len(),
@@ -96,11 +125,13 @@ fn run_sample(rel: &str, path: &Path, params: FoldParams) -> Summary {
         largest: 0.0,
     };
     for (k, &t) in times.iter().enumerate() {
-        let frame = frames::evaluate(&rig, &pre, anim, k, t);
-        let (input, skinned) = (frame.welded(&pre), frame.welded_normals(&pre));
-        let mut out = input.clone();
-        let pose = rig.pose_at(anim, t);
-        let res = pass.run(&rig, &pose, &mut out).expect("self-contact runs");
+        let Passed {
+            frame,
+            input,
+            out,
+            report: res,
+        } = prepared.pass_frame(anim, k, t);
+        let skinned = frame.welded_normals(&prepared.pre);
         sum.folded += usize::from(!res.folds.is_empty());
         sum.unbalanced += res.unbalanced;
         for (b, w) in pre.welded.iter().enumerate() {
@@ -235,7 +266,8 @@ fn intersections_without_a_contact_zone_are_not_folds() {
     let Some(path) = sample(rel) else {
         return;
     };
-    let Prepared { rig, pre, pass, .. } = prepare(&path, FoldParams::default());
+    let prepared = prepare(&path, FoldParams::default());
+    let pass = &prepared.pass;
     assert!(
         pass.pairs()
             .iter()
@@ -243,20 +275,15 @@ fn intersections_without_a_contact_zone_are_not_folds() {
         "{:?}",
         pass.pairs()
     );
-    let times = frames::sample_times(&rig, Some(0), Some(21)).expect("frames");
+    let times = frames::sample_times(&prepared.rig, Some(0), Some(21)).expect("frames");
     for (k, &t) in times.iter().enumerate() {
-        let frame = frames::evaluate(&rig, &pre, Some(0), k, t);
-        let input = frame.welded(&pre);
-        let mut out = input.clone();
-        let res = pass
-            .run(&rig, &rig.pose_at(Some(0), t), &mut out)
-            .expect("runs");
+        let p = prepared.pass_frame(Some(0), k, t);
         assert!(
-            res.folds.is_empty(),
+            p.report.folds.is_empty(),
             "frame {k}: {:?}",
-            res.folds.iter().map(|f| &f.name).collect::<Vec<_>>()
+            p.report.folds.iter().map(|f| &f.name).collect::<Vec<_>>()
         );
-        assert_eq!(out, input, "frame {k}");
+        assert_eq!(p.out, p.input, "frame {k}");
     }
 }
 
@@ -272,17 +299,13 @@ fn cesium_man_walk_pops_no_more_than_measured() {
     let Some(path) = sample(rel) else {
         return;
     };
-    let Prepared { rig, pre, pass, .. } = prepare(&path, FoldParams::default());
-    let times = frames::sample_times(&rig, Some(0), Some(61)).expect("frames");
+    let prepared = prepare(&path, FoldParams::default());
+    let times = frames::sample_times(&prepared.rig, Some(0), Some(61)).expect("frames");
     let (mut ins, mut outs) = (Vec::new(), Vec::new());
     for (k, &t) in times.iter().enumerate() {
-        let frame = frames::evaluate(&rig, &pre, Some(0), k, t);
-        let input = frame.welded(&pre);
-        let mut out = input.clone();
-        pass.run(&rig, &rig.pose_at(Some(0), t), &mut out)
-            .expect("runs");
-        ins.push(input.concat());
-        outs.push(out.concat());
+        let p = prepared.pass_frame(Some(0), k, t);
+        ins.push(p.input.concat());
+        outs.push(p.out.concat());
     }
     let sd = metrics::second_difference_ratio(&outs, &ins);
     println!(

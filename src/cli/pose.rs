@@ -607,43 +607,18 @@ fn stale_files(a: &Args, frames: usize) -> Vec<String> {
     stale.into_iter().map(|(_, name)| name).collect()
 }
 
-/// Computes every frame in parallel (`each`), stopping at the first failure: the results in
-/// frame order, or the first error (in frame order) once the frames under way have finished;
-/// what they staged is then dropped, which removes it.
+/// Computes every frame in parallel (`each`): the results in frame order, or an error once
+/// the frames under way have finished (rayon stops at a failure); what the others staged is
+/// then dropped, which removes it.
 fn all_frames<T: Send>(
     times: &[f64],
     each: impl Fn(usize, f64) -> Result<T, String> + Sync,
 ) -> Result<Vec<T>, String> {
-    use std::sync::atomic::{AtomicBool, Ordering};
-    let failed = AtomicBool::new(false);
-    let results: Vec<Option<Result<T, String>>> = times
+    times
         .par_iter()
         .enumerate()
-        .map(|(i, &t)| {
-            if failed.load(Ordering::Relaxed) {
-                return None;
-            }
-            let r = each(i, t);
-            if r.is_err() {
-                failed.store(true, Ordering::Relaxed);
-            }
-            Some(r)
-        })
-        .collect();
-    let mut out = Vec::with_capacity(results.len());
-    let mut first_error = None;
-    for r in results.into_iter().flatten() {
-        match r {
-            Ok(x) => out.push(x),
-            Err(e) => {
-                first_error.get_or_insert(e);
-            }
-        }
-    }
-    match first_error {
-        Some(e) => Err(e),
-        None => Ok(out),
-    }
+        .map(|(i, &t)| each(i, t))
+        .collect()
 }
 
 /// Commits staged files. A destination taken by a folder is refused before any file is
@@ -716,7 +691,7 @@ fn write_glb(job: &Job, times: &[f64]) -> Result<Written, BoxError> {
         staged.extend(diagnostics);
     }
     glb::check_bakeable(&frames).map_err(|e| format!("{e} (nothing written)"))?;
-    let keyed = glb::key_frames(&frames).len();
+    let keyed = glb::key_times(times).len();
     if keyed < frames.len() {
         eprintln!(
             "warning: {}: {} of {} frames share their key time with an earlier one (no animation, \

@@ -11,16 +11,11 @@ use gltf_json as json;
 use json::validation::Checked::Valid;
 use std::collections::BTreeMap;
 
-/// The frames a glb can key, by position in `frames`: the first, then each whose key time (from
+/// The frames at `times` a glb can key, by position: the first, then each whose key time (from
 /// the first, as `f32`) exceeds the last kept one's. A glTF animation's key times must
 /// increase, and one key time holds one pose: a rig without animation, a zero-length one, or
 /// frames closer than `f32` resolves give repeated times (the Khronos validator rejected such
 /// files; found posing the WebXR hands, which have no animation, with `--frames 12`).
-pub fn key_frames(frames: &[Frame]) -> Vec<usize> {
-    key_times(&frames.iter().map(|f| f.time).collect::<Vec<_>>())
-}
-
-/// [`key_frames`] of frames at `times`.
 pub fn key_times(times: &[f64]) -> Vec<usize> {
     let Some(&first) = times.first() else {
         return Vec::new();
@@ -37,10 +32,11 @@ pub fn key_times(times: &[f64]) -> Vec<usize> {
     kept
 }
 
-/// Builds the glb bytes of a sequence of frames (at least one); only its [`key_frames`] are
-/// baked.
+/// Builds the glb bytes of a sequence of frames (at least one); only those at its
+/// [`key_times`] are baked.
 pub fn bake(rig: &Rig, frames: &[Frame], name: &str) -> Result<Vec<u8>, json::Error> {
-    let keyed: Vec<&Frame> = key_frames(frames).into_iter().map(|k| &frames[k]).collect();
+    let times: Vec<f64> = frames.iter().map(|f| f.time).collect();
+    let keyed: Vec<&Frame> = key_times(&times).into_iter().map(|k| &frames[k]).collect();
     let frames = keyed.as_slice();
     let mut b = GlbBuilder::new();
     let mut nodes = Vec::new();
@@ -208,28 +204,13 @@ fn push_weights_animation(
 mod tests {
     use super::*;
 
-    fn at(times: &[f64]) -> Vec<Frame> {
-        times
-            .iter()
-            .enumerate()
-            .map(|(index, &time)| Frame {
-                index,
-                time,
-                bodies: Vec::new(),
-            })
-            .collect()
-    }
-
     #[test]
-    fn key_frames_keep_increasing_times_only() {
-        assert_eq!(key_frames(&at(&[])), Vec::<usize>::new());
-        assert_eq!(key_frames(&at(&[0.0, 0.5, 1.0])), vec![0, 1, 2]);
+    fn key_times_keep_increasing_times_only() {
+        assert_eq!(key_times(&[]), Vec::<usize>::new());
+        assert_eq!(key_times(&[0.0, 0.5, 1.0]), vec![0, 1, 2]);
         // No animation: every frame at t = 0.
-        assert_eq!(key_frames(&at(&[0.0; 4])), vec![0]);
+        assert_eq!(key_times(&[0.0; 4]), vec![0]);
         // Closer than f32 resolves (its spacing is 0.0625 at 1e6 s), or going back.
-        assert_eq!(
-            key_frames(&at(&[0.0, 1e6, 1e6 + 1e-3, 5e5, 2e6])),
-            vec![0, 1, 4]
-        );
+        assert_eq!(key_times(&[0.0, 1e6, 1e6 + 1e-3, 5e5, 2e6]), vec![0, 1, 4]);
     }
 }

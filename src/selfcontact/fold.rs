@@ -347,18 +347,11 @@ impl FoldPre {
     /// rest size (a joint scaled to 0): such a fold is not resolved (nothing to resolve at that
     /// size, and all its faces overlap each other).
     pub fn collapsed(&self, positions: &[Point3<f64>]) -> bool {
-        let mut corners = self
-            .regions
-            .shared
-            .iter()
-            .filter_map(|&v| positions.get(v as usize));
-        let Some(first) = corners.next() else {
-            return true;
-        };
-        let (lo, hi) = corners.fold((*first, *first), |(lo, hi), p| (lo.inf(p), hi.sup(p)));
-        let size = (hi - lo).norm();
+        let size = self.regions.joint_size(positions);
         // NaN counts as collapsed (no size to resolve a fold at).
-        size.is_nan() || size < crate::pass::COLLAPSED * self.joint_size
+        self.regions.shared.is_empty()
+            || size.is_nan()
+            || size < crate::pass::COLLAPSED * self.joint_size
     }
 
     /// Detection with the rest partition: `None` when the fold does not intersect itself at

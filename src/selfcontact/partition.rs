@@ -70,15 +70,27 @@ pub fn partition_of_unity_with_stats(
     w1: &[bool],
     w2: &[bool],
 ) -> Result<(Vec<f64>, PartitionStats), SelfContactError> {
+    let adjacency = vertex_adjacency(positions_rest.len(), triangles)?;
+    partition_with_adjacency(positions_rest, triangles, &adjacency, w1, w2)
+}
+
+/// [`partition_of_unity_with_stats`] with the mesh's [`vertex_adjacency`] already built.
+pub(super) fn partition_with_adjacency(
+    positions_rest: &[Point3<f64>],
+    triangles: &[[u32; 3]],
+    adjacency: &[Vec<u32>],
+    w1: &[bool],
+    w2: &[bool],
+) -> Result<(Vec<f64>, PartitionStats), SelfContactError> {
     let n = positions_rest.len();
-    if w1.len() != n || w2.len() != n {
+    if w1.len() != n || w2.len() != n || adjacency.len() != n {
         return Err(SelfContactError::InconsistentInput(format!(
-            "{n} positions, {} W1 flags, {} W2 flags",
+            "{n} positions, {} W1 flags, {} W2 flags, {} adjacency rows",
             w1.len(),
-            w2.len()
+            w2.len(),
+            adjacency.len()
         )));
     }
-    let adjacency = vertex_adjacency(n, triangles)?;
     let in_r: Vec<bool> = w1.iter().zip(w2).map(|(&a, &b)| a && b).collect();
     let mut stats = PartitionStats {
         shared: in_r.iter().filter(|&&x| x).count(),
@@ -87,7 +99,7 @@ pub fn partition_of_unity_with_stats(
         ..Default::default()
     };
 
-    let fixed = dirichlet_sides(&adjacency, w1, w2, &mut stats)?;
+    let fixed = dirichlet_sides(adjacency, w1, w2, &mut stats)?;
     let mut beta: Vec<Option<f64>> = (0..n)
         .map(|v| match (w1[v], w2[v]) {
             (true, false) => Some(1.0),
@@ -114,7 +126,7 @@ pub fn partition_of_unity_with_stats(
         }
     }
 
-    stats.orphans = fill_orphans(&adjacency, &mut beta);
+    stats.orphans = fill_orphans(adjacency, &mut beta);
     let beta = beta
         .into_iter()
         .map(|b| b.unwrap_or(0.5).clamp(0.0, 1.0))

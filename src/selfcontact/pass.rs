@@ -298,21 +298,25 @@ impl SelfContactPass {
             out.no_direction += 1;
             return Ok(false);
         };
-        let first = frame_input.get_or_insert_with(|| positions.to_vec());
-        let pos = &positions[fold.body];
-        let normals = vertex_normals(pos, tris, NormalWeighting::Area);
+        // The turn guard's references: the frame's input (copied at the first fold) and the
+        // skinning's normals.
         let skinned = self
             .params
             .turn_guard
             .then(|| self.skinned_normals(rig, pose, fold))
             .flatten();
+        let first = skinned
+            .is_some()
+            .then(|| &*frame_input.get_or_insert_with(|| positions.to_vec()));
+        let pos = &positions[fold.body];
+        let normals = vertex_normals(pos, tris, NormalWeighting::Area);
         let normal = |v: usize| skinned.as_ref().map_or_else(Vector3::zeros, |s| s.at(v));
         let input = FoldInput {
             positions: pos,
             normals: &normals,
             triangles: tris,
             direction,
-            turn_reference: skinned.is_some().then_some(TurnReference {
+            turn_reference: first.map(|first| TurnReference {
                 positions: &first[fold.body],
                 normal: &normal,
             }),

@@ -15,7 +15,7 @@
 //! ([`WeldedMesh::representative`]); the rest positions are the bind positions of the body.
 
 use super::joint_tree::{JointTree, TreeSource};
-use super::partition::{partition_of_unity_with_stats, vertex_adjacency, PartitionStats};
+use super::partition::{partition_with_adjacency, vertex_adjacency, PartitionStats};
 use super::SelfContactError;
 use crate::mesh::WeldedMesh;
 use crate::rig::{Body, Rig, Skin};
@@ -449,8 +449,9 @@ fn grown_pair(
     if shared.is_empty() {
         return Ok(None);
     }
-    let (beta, partition) = partition_of_unity_with_stats(&seeded.rest, &mesh.triangles, &w1, &w2)
-        .map_err(|e| e.for_pair(&seeded.pair.name))?;
+    let (beta, partition) =
+        partition_with_adjacency(&seeded.rest, &mesh.triangles, &seeded.adjacency, &w1, &w2)
+            .map_err(|e| e.for_pair(&seeded.pair.name))?;
     let mut regions = PairRegions {
         pair: seeded.pair.clone(),
         w1_faces,
