@@ -254,6 +254,34 @@ fn frames_sharing_a_key_time_are_baked_once() {
     assert_eq!(sampler.input().count(), 3);
 }
 
+/// The baker refuses what it cannot bake with a typed error, before building anything: no
+/// frame (it indexed the first and panicked), a frame with another body count, or one with
+/// fewer positions than the rig's primitives.
+#[test]
+fn the_baker_refuses_frames_that_do_not_fit_the_rig() {
+    use contact_skin::output::glb::{self, BakeError};
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("rigs/bending_capsule.glb");
+    let rig = rig::load(&path).expect("load");
+    let pre = Precomputed::new(&rig, Method::Lbs);
+    let frame = frames::evaluate(&rig, &pre, Some(0), 0, 0.0);
+    assert!(matches!(
+        glb::bake(&rig, &[], "test"),
+        Err(BakeError::NoFrames)
+    ));
+    let mut extra_body = frame.clone();
+    extra_body.bodies.push(frame.bodies[0].clone());
+    let e = glb::bake(&rig, &[frame.clone(), extra_body], "test").expect_err("refused");
+    assert!(
+        matches!(e, BakeError::Mismatch { frame: 0, .. }) && e.to_string().contains("2 bodies"),
+        "{e}"
+    );
+    let mut short = frame.clone();
+    short.bodies[0].positions.pop();
+    let e = glb::bake(&rig, &[frame.clone(), short], "test").expect_err("refused");
+    assert!(e.to_string().contains("positions"), "{e}");
+    assert!(glb::bake(&rig, &[frame], "test").is_ok());
+}
+
 /// A rig without animation (the WebXR hand) baked with `--frames 5`: the five frames are one
 /// pose at one time, and a glTF animation needs increasing key times (the Khronos validator
 /// rejected the file). The glb holds that one pose without animation, and `pose` says so.

@@ -690,7 +690,7 @@ fn write_glb(job: &Job, times: &[f64]) -> Result<Written, BoxError> {
         stats.push(s);
         staged.extend(diagnostics);
     }
-    glb::check_bakeable(&frames).map_err(|e| format!("{e} (nothing written)"))?;
+    let bytes = glb::bake(job.rig, &frames, &stem).map_err(|e| format!("{e} (nothing written)"))?;
     let keyed = glb::key_times(times).len();
     if keyed < frames.len() {
         eprintln!(
@@ -702,7 +702,6 @@ fn write_glb(job: &Job, times: &[f64]) -> Result<Written, BoxError> {
             frames.len()
         );
     }
-    let bytes = glb::bake(job.rig, &frames, &stem)?;
     staged.push(Staged::write(&path, &bytes).map_err(|e| format!("{}: {e}", path.display()))?);
     commit_all(staged)?;
     Ok((vec![path], stats))

@@ -32,9 +32,34 @@ pub fn key_times(times: &[f64]) -> Vec<usize> {
     kept
 }
 
-/// Builds the glb bytes of a sequence of frames (at least one); only those at its
-/// [`key_times`] are baked.
-pub fn bake(rig: &Rig, frames: &[Frame], name: &str) -> Result<Vec<u8>, json::Error> {
+/// Why a sequence of frames cannot be baked.
+#[derive(Debug, thiserror::Error)]
+pub enum BakeError {
+    /// No frame to bake.
+    #[error("no frame to bake")]
+    NoFrames,
+    /// A frame does not match the rig (bodies or vertices per body).
+    #[error("frame {frame}: {what}")]
+    Mismatch {
+        /// The frame's index.
+        frame: usize,
+        /// What does not match.
+        what: String,
+    },
+    /// A key time or morph delta that 32-bit floats cannot hold ([`check_bakeable`]).
+    #[error("{0}")]
+    Unrepresentable(String),
+    /// The glTF document could not be serialized.
+    #[error("glTF serialization: {0}")]
+    Json(#[from] json::Error),
+}
+
+/// Builds the glb bytes of a sequence of frames (at least one, each with the rig's bodies and
+/// vertex counts); only those at its [`key_times`] are baked. Anything else is a
+/// [`BakeError`], checked before anything is built.
+pub fn bake(rig: &Rig, frames: &[Frame], name: &str) -> Result<Vec<u8>, BakeError> {
+    check_frames(rig, frames)?;
+    check_bakeable(frames).map_err(BakeError::Unrepresentable)?;
     let times: Vec<f64> = frames.iter().map(|f| f.time).collect();
     let keyed: Vec<&Frame> = key_times(&times).into_iter().map(|k| &frames[k]).collect();
     let frames = keyed.as_slice();
@@ -69,7 +94,43 @@ pub fn bake(rig: &Rig, frames: &[Frame], name: &str) -> Result<Vec<u8>, json::Er
         nodes: nodes.clone(),
     });
     b.root.scene = Some(scene);
-    b.finish()
+    Ok(b.finish()?)
+}
+
+/// At least one frame, each with one position set per body of `rig`, each as long as the
+/// body's vertex count (what [`bake_primitive`] indexes).
+fn check_frames(rig: &Rig, frames: &[Frame]) -> Result<(), BakeError> {
+    if frames.is_empty() {
+        return Err(BakeError::NoFrames);
+    }
+    for f in frames {
+        let mismatch = |what: String| BakeError::Mismatch {
+            frame: f.index,
+            what,
+        };
+        if f.bodies.len() != rig.bodies.len() {
+            return Err(mismatch(format!(
+                "{} bodies, the rig has {}",
+                f.bodies.len(),
+                rig.bodies.len()
+            )));
+        }
+        for (b, (posed, body)) in f.bodies.iter().zip(&rig.bodies).enumerate() {
+            let needed = body
+                .primitives
+                .iter()
+                .map(|p| p.first_vertex + p.vertex_count)
+                .max()
+                .unwrap_or(0);
+            if posed.positions.len() < needed {
+                return Err(mismatch(format!(
+                    "body {b}: {} positions, its primitives need {needed}",
+                    posed.positions.len()
+                )));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Whether `frames` (each already [`super::check_representable`]) can be baked: every morph
