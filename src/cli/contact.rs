@@ -151,18 +151,6 @@ pub struct ContactFrame {
 }
 
 impl ContactFrame {
-    /// Whether body `b` was deformed by either pass.
-    pub fn deformed(&self, b: usize) -> bool {
-        self.output
-            .diagnostics
-            .get(b)
-            .is_some_and(|d| d.stats.is_some())
-            || self
-                .self_output
-                .as_ref()
-                .is_some_and(|s| s.folds.iter().any(|f| f.body == b))
-    }
-
     /// Folds resolved in this frame.
     pub fn fold_count(&self) -> usize {
         self.self_output.as_ref().map_or(0, |s| s.folds.len())

@@ -9,10 +9,11 @@
 
 use super::contact::{self, median, median_folds, median_stages, ContactFrame, ContactRun, FoldMs};
 use super::frame_count;
+use super::measure as quality;
 use super::CliResult;
 use contact_skin::config;
 use contact_skin::frames::{self, Frame, Precomputed};
-use contact_skin::mesh::operators::{mean_edge_length, vertex_normals, NormalWeighting};
+use contact_skin::mesh::operators::{vertex_normals, NormalWeighting};
 use contact_skin::mesh::signed_volume;
 use contact_skin::output::{self, glb, obj};
 use contact_skin::pass::StageTimings;
@@ -298,14 +299,8 @@ impl<'a> Measured<'a> {
         timed: &[(ContactFrame, f64)],
         measure: PenetrationOf,
     ) -> Self {
-        let rest = frames::welded_positions(rig, pre, None, 0.0);
-        let tris: Vec<&[[u32; 3]]> = pre.welded.iter().map(|w| w.triangles.as_slice()).collect();
-        let h = rest
-            .iter()
-            .zip(&tris)
-            .map(|(p, t)| mean_edge_length(p, t))
-            .sum::<f64>()
-            / rest.len().max(1) as f64;
+        let tris = quality::triangles(pre);
+        let h = quality::rest_edge_length(rig, pre);
         let inputs: Vec<Vec<Vec<Point3<f64>>>> =
             timed.iter().map(|(f, _)| f.input.welded(pre)).collect();
         let before: Vec<PenetrationRow> = inputs.par_iter().map(|p| measure(p, &tris, h)).collect();
@@ -313,7 +308,7 @@ impl<'a> Measured<'a> {
         let worst_volume_error = timed
             .iter()
             .zip(&inputs)
-            .map(|((f, _), input)| volume_error(input, f, &tris))
+            .map(|((f, _), input)| quality::volume_error(&tris, input, &f.positions))
             .fold(0.0, f64::max);
         Self {
             tris,
@@ -365,35 +360,11 @@ fn measure(rig: &Rig, pre: &Precomputed, timed: &[(ContactFrame, f64)]) -> Conta
 }
 
 fn penetration(positions: &[Vec<Point3<f64>>], tris: &[&[[u32; 3]]], h: f64) -> PenetrationRow {
-    let normals: Vec<_> = positions
-        .iter()
-        .zip(tris)
-        .map(|(p, t)| vertex_normals(p, t, NormalWeighting::Area))
-        .collect();
-    let bodies: Vec<metrics::Body> = positions
-        .iter()
-        .zip(tris)
-        .zip(&normals)
-        .map(|((p, t), n)| (p.as_slice(), *t, n.as_slice()))
-        .collect();
-    let p = metrics::residual_penetration_bodies(&bodies, h);
+    let p = quality::penetration(positions, tris, h);
     PenetrationRow {
         vertices: p.vertices,
         max_depth_h: p.max_depth / h,
     }
-}
-
-/// Largest relative volume change of a deformed body in one frame.
-fn volume_error(input: &[Vec<Point3<f64>>], out: &ContactFrame, tris: &[&[[u32; 3]]]) -> f64 {
-    (0..input.len())
-        .filter(|&b| out.deformed(b))
-        .map(|b| {
-            metrics::volume_error(
-                signed_volume(&input[b], tris[b]),
-                signed_volume(&out.positions[b], tris[b]),
-            )
-        })
-        .fold(0.0, f64::max)
 }
 
 /// The self-contact pass on a single-body scene (first animation, `method` input): OBJ frames
@@ -461,7 +432,7 @@ fn run_self_contact(
     let (after, turned) = match (timed.get(deepest), inputs.get(deepest)) {
         (Some((f, _)), Some(input)) => (
             self_penetration(&f.positions, &tris, h),
-            turned_faces(&tris, input, &f.input.welded_normals(&pre), &f.positions, h),
+            quality::turned_faces(&tris, input, &f.input.welded_normals(&pre), &f.positions, h),
         ),
         _ => (PenetrationRow::default(), metrics::TurnedFaces::default()),
     };
@@ -676,21 +647,6 @@ fn print_contact_table(rows: &[ContactRow]) {
          in penetrating vertices and depth / h; OBJ frames in <scene>/contact_obj, baked \
          <scene>/<anim>.contact.glb)"
     );
-}
-
-/// [`metrics::turned_faces`] summed over the bodies.
-fn turned_faces(
-    tris: &[&[[u32; 3]]],
-    input: &[Vec<Point3<f64>>],
-    skinned: &[Vec<nalgebra::Vector3<f64>>],
-    output: &[Vec<Point3<f64>>],
-    h: f64,
-) -> metrics::TurnedFaces {
-    let mut sum = metrics::TurnedFaces::default();
-    for (b, t) in tris.iter().enumerate() {
-        sum += metrics::turned_faces(t, &input[b], &output[b], &skinned[b], h);
-    }
-    sum
 }
 
 fn print_self_contact_table(rows: &[SelfContactRow]) {

@@ -3,6 +3,7 @@
 mod contact;
 mod demo;
 mod info;
+mod measure;
 mod pose;
 
 use clap::{Parser, Subcommand};

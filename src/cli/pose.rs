@@ -4,6 +4,7 @@
 
 use super::contact::{self, median, median_folds, median_stages, BoxError, ContactRun, FoldMs};
 use super::frame_count;
+use super::measure::{self, Bodies, FrameMetrics, RunMetrics};
 use super::CliResult;
 use contact_skin::frames::{self, Frame, Precomputed};
 use contact_skin::output::{self, glb, obj, Staged};
@@ -92,6 +93,13 @@ pub struct Args {
     /// Print a JSON summary on stdout.
     #[arg(long)]
     json: bool,
+    /// Also measure every frame against its skinned input (MEASURING.md): penetrating
+    /// vertices before and after, largest depth, volume error, inverted and turned faces,
+    /// non-finite values, and the run's temporal second-difference ratio; printed and in the
+    /// JSON summary (`metrics`). Keeps every frame's welded positions, input and output, in
+    /// memory (48 bytes per vertex per frame).
+    #[arg(long)]
+    metrics: bool,
 }
 
 #[derive(Serialize)]
@@ -148,6 +156,8 @@ struct Summary {
     /// Median fold step times (ms) over the frames with a fold (each step summed over the
     /// frame's folds; `wall`: the whole self-contact pass).
     fold_ms: Option<FoldMs>,
+    /// `--metrics`: every frame measured against its skinned input, and the run's worst.
+    metrics: Option<RunMetrics>,
 }
 
 /// Resolves `--animation` against the rig.
@@ -202,6 +212,8 @@ struct Job<'a> {
     animation: Option<usize>,
     header: String,
     pb: ProgressBar,
+    /// `--metrics`: the rest mean edge length `h`, the measures' length unit.
+    h: Option<f64>,
 }
 
 /// What is kept of a frame once written.
@@ -217,6 +229,8 @@ struct FrameStats {
     folds_without_direction: usize,
     folds_unbalanced: usize,
     vertices_guarded: usize,
+    /// `--metrics`: the frame measured, and its welded input and output.
+    measured: Option<(FrameMetrics, Bodies, Bodies)>,
 }
 
 /// Runs `pose`.
@@ -273,15 +287,29 @@ pub fn run(a: &Args) -> CliResult {
         animation,
         header: header(a, &rig, animation, method, contact.as_ref()),
         pb: progress(times.len(), a.json),
+        h: a.metrics.then(|| measure::rest_edge_length(&rig, &pre)),
     };
     job.pb.set_message(format!("posing {}", a.rig.display()));
-    let (files, stats) = match a.format {
+    let (files, mut stats) = match a.format {
         Format::Obj => write_obj_frames(&job, &times)?,
         Format::Glb => write_glb(&job, &times)?,
     };
     job.pb.finish_and_clear();
-    let summary = summarize(&job, method, &times, files, &stats, precompute_ms, start);
+    let metrics = job.h.map(|h| run_metrics(h, &mut stats));
+    let mut summary = summarize(&job, method, &times, files, &stats, precompute_ms, start);
+    summary.metrics = metrics;
     print_summary(&summary, a)
+}
+
+/// The run's measures, taken out of the frames' statistics (in frame order).
+fn run_metrics(h: f64, stats: &mut [FrameStats]) -> RunMetrics {
+    let (mut frames, mut inputs, mut outputs) = (Vec::new(), Vec::new(), Vec::new());
+    for (m, input, output) in stats.iter_mut().filter_map(|s| s.measured.take()) {
+        frames.push(m);
+        inputs.push(input);
+        outputs.push(output);
+    }
+    measure::run_metrics(h, frames, &inputs, &outputs)
 }
 
 fn header(
@@ -380,6 +408,7 @@ fn summarize(
         vertices_guarded: stats.iter().map(|s| s.vertices_guarded).sum(),
         self_contact_ms: self_run.map(|_| median(self_walls)),
         fold_ms: self_run.map(|_| median_folds(&with_fold)),
+        metrics: None,
     }
 }
 
@@ -484,7 +513,39 @@ fn print_summary(s: &Summary, a: &Args) -> CliResult {
             );
         }
     }
+    if let Some(m) = &s.metrics {
+        print_metrics(m);
+    }
     Ok(())
+}
+
+/// `--metrics` in words: each measure's worst frame.
+fn print_metrics(m: &RunMetrics) {
+    let temporal = m.temporal.map_or("fewer than 3 frames".to_string(), |t| {
+        format!(
+            "{:.2} (frame {}, vertex {})",
+            t.ratio,
+            t.frame.map_or("-".into(), |f| f.to_string()),
+            t.vertex.map_or("-".into(), |v| v.to_string())
+        )
+    });
+    println!(
+        "metrics (worst frame; h = {:.4}): penetrating vertices {} (frame {}) in the input, {} (frame {}) in the output, deepest {:.2} h (frame {}); volume error {:.1e} (frame {}); inverted faces {} (frame {}), of which turned by the deformer {} (frame {}); non-finite values {}; temporal second-difference ratio {temporal}",
+        m.h,
+        m.penetrating_before.value,
+        m.penetrating_before.frame,
+        m.penetrating_after.value,
+        m.penetrating_after.frame,
+        m.max_depth_after_h.value,
+        m.max_depth_after_h.frame,
+        m.volume_error.value,
+        m.volume_error.frame,
+        m.inverted_faces.value,
+        m.inverted_faces.frame,
+        m.turned_faces.value,
+        m.turned_faces.frame,
+        m.non_finite
+    );
 }
 
 /// One frame posed: the frame, its statistics and its diagnostics file staged (if asked).
@@ -526,6 +587,12 @@ fn compute_unchecked(
             folds_without_direction: 0,
             folds_unbalanced: 0,
             vertices_guarded: 0,
+            measured: job.h.map(|h| {
+                let input = frame.welded(job.pre);
+                let normals = frame.welded_normals(job.pre);
+                let m = measure::frame_metrics(job.pre, h, i, &input, &normals, &input);
+                (m, input.clone(), input)
+            }),
         };
         return Ok((frame, stats, None));
     };
@@ -550,6 +617,12 @@ fn compute_unchecked(
         folds_without_direction: so.map_or(0, |s| s.no_direction),
         folds_unbalanced: so.map_or(0, |s| s.unbalanced),
         vertices_guarded: so.map_or(0, |s| s.guarded),
+        measured: job.h.map(|h| {
+            let input = cf.input.welded(job.pre);
+            let normals = cf.input.welded_normals(job.pre);
+            let m = measure::frame_metrics(job.pre, h, i, &input, &normals, &cf.positions);
+            (m, input, cf.positions.clone())
+        }),
     };
     Ok((cf.frame, stats, diagnostics))
 }

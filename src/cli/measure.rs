@@ -1,0 +1,230 @@
+//! `pose --metrics`: the quality measures of `MEASURING.md` on a posed run, each frame against
+//! its skinned input (residual penetration, volume error, inverted and turned faces,
+//! non-finite values) and the run's temporal smoothness (second-difference ratio). The demo
+//! measures its scenes with the same functions.
+
+use contact_skin::frames::Precomputed;
+use contact_skin::mesh::operators::{mean_edge_length, vertex_normals, NormalWeighting};
+use contact_skin::mesh::signed_volume;
+use contact_skin::report::metrics;
+use contact_skin::rig::Rig;
+use nalgebra::{Point3, Vector3};
+use serde::Serialize;
+
+/// Welded positions per body.
+pub type Bodies = Vec<Vec<Point3<f64>>>;
+
+/// The welded triangles of every body.
+pub fn triangles(pre: &Precomputed) -> Vec<&[[u32; 3]]> {
+    pre.welded.iter().map(|w| w.triangles.as_slice()).collect()
+}
+
+/// `h`: the rest pose's mean edge length, averaged over the bodies (the length unit of the
+/// penetration nudge and of the reported depths).
+pub fn rest_edge_length(rig: &Rig, pre: &Precomputed) -> f64 {
+    let rest = contact_skin::frames::welded_positions(rig, pre, None, 0.0);
+    let sum: f64 = rest
+        .iter()
+        .zip(&pre.welded)
+        .map(|(p, w)| mean_edge_length(p, &w.triangles))
+        .sum();
+    sum / rest.len().max(1) as f64
+}
+
+/// Residual penetration (`MEASURING.md`) of a frame's bodies together: a vertex is flagged
+/// inside another body or inside another part of its own body (a fold).
+pub fn penetration(
+    positions: &[Vec<Point3<f64>>],
+    tris: &[&[[u32; 3]]],
+    h: f64,
+) -> metrics::Penetration {
+    let normals: Vec<Vec<Vector3<f64>>> = positions
+        .iter()
+        .zip(tris)
+        .map(|(p, t)| vertex_normals(p, t, NormalWeighting::Area))
+        .collect();
+    let bodies: Vec<metrics::Body> = positions
+        .iter()
+        .zip(tris)
+        .zip(&normals)
+        .map(|((p, t), n)| (p.as_slice(), *t, n.as_slice()))
+        .collect();
+    metrics::residual_penetration_bodies(&bodies, h)
+}
+
+/// [`metrics::turned_faces`] summed over the bodies (`skinned`: the skinning's normals).
+pub fn turned_faces(
+    tris: &[&[[u32; 3]]],
+    input: &[Vec<Point3<f64>>],
+    skinned: &[Vec<Vector3<f64>>],
+    output: &[Vec<Point3<f64>>],
+    h: f64,
+) -> metrics::TurnedFaces {
+    let mut sum = metrics::TurnedFaces::default();
+    for (b, t) in tris.iter().enumerate() {
+        sum += metrics::turned_faces(t, &input[b], &output[b], &skinned[b], h);
+    }
+    sum
+}
+
+/// The largest relative volume change of a body from `input` to `output` (signed volumes;
+/// a body the passes left alone changes by exactly 0).
+pub fn volume_error(
+    tris: &[&[[u32; 3]]],
+    input: &[Vec<Point3<f64>>],
+    output: &[Vec<Point3<f64>>],
+) -> f64 {
+    tris.iter()
+        .enumerate()
+        .filter(|&(b, _)| input[b] != output[b])
+        .map(|(b, t)| {
+            metrics::volume_error(signed_volume(&input[b], t), signed_volume(&output[b], t))
+        })
+        .fold(0.0, f64::max)
+}
+
+/// One frame measured against its skinned input.
+#[derive(Clone, Debug, Serialize)]
+pub struct FrameMetrics {
+    /// Frame index.
+    pub frame: usize,
+    /// Penetrating (welded) vertices of the skinned input.
+    pub penetrating_before: usize,
+    /// Penetrating vertices of the output.
+    pub penetrating_after: usize,
+    /// The output's largest penetration depth, in `h`.
+    pub max_depth_after_h: f64,
+    /// Largest relative volume change of a body.
+    pub volume_error: f64,
+    /// Faces whose normal turned by more than 90° from input to output (`MEASURING.md`).
+    pub inverted_faces: usize,
+    /// Of those, the faces also turned against the skinning's normals: turned by the
+    /// deformer, not undone from a fold of the skinning (LBS's loop).
+    pub turned_faces: usize,
+    /// Non-finite output coordinates.
+    pub non_finite: usize,
+}
+
+/// Measures one frame (`input`/`output`: welded positions per body, `skinned`: the skinning's
+/// welded normals).
+pub fn frame_metrics(
+    pre: &Precomputed,
+    h: f64,
+    frame: usize,
+    input: &[Vec<Point3<f64>>],
+    skinned: &[Vec<Vector3<f64>>],
+    output: &[Vec<Point3<f64>>],
+) -> FrameMetrics {
+    let tris = triangles(pre);
+    let after = penetration(output, &tris, h);
+    let turned = turned_faces(&tris, input, skinned, output, h);
+    FrameMetrics {
+        frame,
+        penetrating_before: penetration(input, &tris, h).vertices,
+        penetrating_after: after.vertices,
+        max_depth_after_h: after.max_depth / h,
+        volume_error: volume_error(&tris, input, output),
+        inverted_faces: turned.against_input,
+        turned_faces: turned.turned,
+        non_finite: output.iter().map(|p| metrics::non_finite(p)).sum(),
+    }
+}
+
+/// The largest value of a per-frame measure and the first frame where it occurs.
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct Worst<T> {
+    /// The value.
+    pub value: T,
+    /// The frame.
+    pub frame: usize,
+}
+
+/// `MEASURING.md`'s temporal smoothness over the run.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct Temporal {
+    /// Largest second difference of the output divided by the input's (a pop shows as a large
+    /// ratio; identical sequences give 1).
+    pub ratio: f64,
+    /// The output's largest second difference, in `h`.
+    pub output_max_h: f64,
+    /// The input's, in `h`.
+    pub input_max_h: f64,
+    /// Middle frame of the output's largest second difference.
+    pub frame: Option<usize>,
+    /// Its welded vertex, counted over the bodies in order.
+    pub vertex: Option<usize>,
+}
+
+/// The measures of a run.
+#[derive(Clone, Debug, Serialize)]
+pub struct RunMetrics {
+    /// `h`: the rest pose's mean edge length.
+    pub h: f64,
+    /// Worst frame of each measure.
+    pub penetrating_before: Worst<usize>,
+    /// Worst frame of each measure.
+    pub penetrating_after: Worst<usize>,
+    /// Worst frame of each measure.
+    pub max_depth_after_h: Worst<f64>,
+    /// Worst frame of each measure.
+    pub volume_error: Worst<f64>,
+    /// Worst frame of each measure.
+    pub inverted_faces: Worst<usize>,
+    /// Worst frame of each measure.
+    pub turned_faces: Worst<usize>,
+    /// Non-finite output coordinates over the run.
+    pub non_finite: usize,
+    /// Temporal smoothness (`None` with fewer than three frames).
+    pub temporal: Option<Temporal>,
+    /// Every frame.
+    pub frames: Vec<FrameMetrics>,
+}
+
+fn worst<T: PartialOrd + Copy + Default>(
+    frames: &[FrameMetrics],
+    get: impl Fn(&FrameMetrics) -> T,
+) -> Worst<T> {
+    let mut w = Worst::default();
+    for (k, f) in frames.iter().enumerate() {
+        if k == 0 || get(f) > w.value {
+            w = Worst {
+                value: get(f),
+                frame: f.frame,
+            };
+        }
+    }
+    w
+}
+
+/// The run's measures from its frames' (in order) and the welded positions of every frame,
+/// input and output (bodies in order).
+pub fn run_metrics(
+    h: f64,
+    frames: Vec<FrameMetrics>,
+    inputs: &[Bodies],
+    outputs: &[Bodies],
+) -> RunMetrics {
+    let flat = |s: &[Bodies]| -> Vec<Vec<Point3<f64>>> { s.iter().map(|b| b.concat()).collect() };
+    let temporal = (frames.len() >= 3).then(|| {
+        let s = metrics::second_difference_ratio(&flat(outputs), &flat(inputs));
+        Temporal {
+            ratio: s.ratio,
+            output_max_h: s.output_max / h,
+            input_max_h: s.input_max / h,
+            frame: s.frame,
+            vertex: s.vertex,
+        }
+    });
+    RunMetrics {
+        h,
+        penetrating_before: worst(&frames, |f| f.penetrating_before),
+        penetrating_after: worst(&frames, |f| f.penetrating_after),
+        max_depth_after_h: worst(&frames, |f| f.max_depth_after_h),
+        volume_error: worst(&frames, |f| f.volume_error),
+        inverted_faces: worst(&frames, |f| f.inverted_faces),
+        turned_faces: worst(&frames, |f| f.turned_faces),
+        non_finite: frames.iter().map(|f| f.non_finite).sum(),
+        temporal,
+        frames,
+    }
+}
