@@ -107,6 +107,9 @@ struct SelfContactRow {
     /// [`metrics::turned_faces`]: LBS's loop is turned over in the input, undoing it is not a
     /// fault).
     turned_faces: metrics::TurnedFaces,
+    /// `MEASURING.md`'s temporal smoothness: the output's largest second difference over the
+    /// input's (a pop shows as a large ratio).
+    temporal_ratio: f64,
     /// Median time per frame: skinning and both passes (ms).
     median_frame_ms: f64,
     /// Median time of the self-contact pass per frame (ms).
@@ -465,6 +468,7 @@ fn run_self_contact(
         worst_volume_error,
         inverted_faces: turned.against_input,
         turned_faces: turned,
+        temporal_ratio: temporal_ratio(&inputs, &timed),
         median_frame_ms: median(timed.iter().map(|(_, ms)| *ms).collect()),
         median_self_ms: median(timed.iter().map(|(f, _)| f.self_wall * 1e3).collect()),
         fold_ms: median_folds(&with_fold),
@@ -472,6 +476,13 @@ fn run_self_contact(
         obj: obj_dir.display().to_string(),
         config: run.config.map(|p| p.display().to_string()),
     }))
+}
+
+/// The second-difference ratio of the run (`timed`'s output against `inputs`, welded).
+fn temporal_ratio(inputs: &[quality::Bodies], timed: &[(ContactFrame, f64)]) -> f64 {
+    let input: Vec<_> = inputs.iter().map(|b| b.concat()).collect();
+    let output: Vec<_> = timed.iter().map(|(f, _)| f.positions.concat()).collect();
+    metrics::second_difference_ratio(&output, &input).ratio
 }
 
 /// The frame whose penetration is deepest (the first of equals).
@@ -655,7 +666,7 @@ fn print_self_contact_table(rows: &[SelfContactRow]) {
     }
     println!();
     println!(
-        "{:<16} {:<6} {:<6} {:>11} {:>32} {:>10} {:>9} {:>7} {:>9} {:>9}",
+        "{:<16} {:<6} {:<6} {:>11} {:>32} {:>10} {:>9} {:>7} {:>8} {:>9} {:>9}",
         "scene",
         "anim",
         "skin",
@@ -664,13 +675,14 @@ fn print_self_contact_table(rows: &[SelfContactRow]) {
         "max |dV|/V",
         "inverted",
         "turned",
+        "2nd diff",
         "ms/frame",
         "self ms"
     );
     for r in rows {
         let (b, f) = (r.penetration_before, r.penetration_after);
         println!(
-            "{:<16} {:<6} {:<6} {:>4}/{:<6} {:>32} {:>10.1e} {:>9} {:>7} {:>9.2} {:>9.2}",
+            "{:<16} {:<6} {:<6} {:>4}/{:<6} {:>32} {:>10.1e} {:>9} {:>7} {:>8.2} {:>9.2} {:>9.2}",
             r.scene,
             r.animation,
             r.method,
@@ -683,6 +695,7 @@ fn print_self_contact_table(rows: &[SelfContactRow]) {
             r.worst_volume_error,
             r.inverted_faces,
             r.turned_faces.turned,
+            r.temporal_ratio,
             r.median_frame_ms,
             r.median_self_ms
         );
@@ -691,7 +704,9 @@ fn print_self_contact_table(rows: &[SelfContactRow]) {
         "(self-contact: first animation; penetration of the body into itself at the frame whose \
          input is deepest; max |dV|/V output against skinned input over the frames; inverted \
          faces (turned against the input) and turned faces (against the input and the \
-         skinning's normals: LBS's loop is turned in the input) at that frame; OBJ frames in <scene>/contact_obj (CoR: contact_obj_cor), baked \
+         skinning's normals: LBS's loop is turned in the input) at that frame; 2nd diff: the \
+         output's largest second difference over the input's, over the frames (a pop shows \
+         as a large ratio); OBJ frames in <scene>/contact_obj (CoR: contact_obj_cor), baked \
          <scene>/<anim>.contact.glb (CoR: .contact.cor.glb))"
     );
 }
