@@ -108,8 +108,8 @@ struct SelfContactRow {
     /// fault).
     turned_faces: metrics::TurnedFaces,
     /// `MEASURING.md`'s temporal smoothness: the output's largest second difference over the
-    /// input's (a pop shows as a large ratio).
-    temporal_ratio: f64,
+    /// input's (a pop shows as a large ratio); `None` with fewer than three frames.
+    temporal_ratio: Option<f64>,
     /// Median time per frame: skinning and both passes (ms).
     median_frame_ms: f64,
     /// Median time of the self-contact pass per frame (ms).
@@ -468,7 +468,7 @@ fn run_self_contact(
         worst_volume_error,
         inverted_faces: turned.against_input,
         turned_faces: turned,
-        temporal_ratio: temporal_ratio(&inputs, &timed),
+        temporal_ratio: temporal_ratio(&inputs, &timed, h),
         median_frame_ms: median(timed.iter().map(|(_, ms)| *ms).collect()),
         median_self_ms: median(timed.iter().map(|(f, _)| f.self_wall * 1e3).collect()),
         fold_ms: median_folds(&with_fold),
@@ -479,10 +479,14 @@ fn run_self_contact(
 }
 
 /// The second-difference ratio of the run (`timed`'s output against `inputs`, welded).
-fn temporal_ratio(inputs: &[quality::Bodies], timed: &[(ContactFrame, f64)]) -> f64 {
+fn temporal_ratio(
+    inputs: &[quality::Bodies],
+    timed: &[(ContactFrame, f64)],
+    h: f64,
+) -> Option<f64> {
     let input: Vec<_> = inputs.iter().map(|b| b.concat()).collect();
     let output: Vec<_> = timed.iter().map(|(f, _)| f.positions.concat()).collect();
-    metrics::second_difference_ratio(&output, &input).ratio
+    quality::temporal(h, &input, &output).map(|t| t.ratio)
 }
 
 /// The frame whose penetration is deepest (the first of equals).
@@ -682,7 +686,7 @@ fn print_self_contact_table(rows: &[SelfContactRow]) {
     for r in rows {
         let (b, f) = (r.penetration_before, r.penetration_after);
         println!(
-            "{:<16} {:<6} {:<6} {:>4}/{:<6} {:>32} {:>10.1e} {:>9} {:>7} {:>8.2} {:>9.2} {:>9.2}",
+            "{:<16} {:<6} {:<6} {:>4}/{:<6} {:>32} {:>10.1e} {:>9} {:>7} {:>8} {:>9.2} {:>9.2}",
             r.scene,
             r.animation,
             r.method,
@@ -695,7 +699,8 @@ fn print_self_contact_table(rows: &[SelfContactRow]) {
             r.worst_volume_error,
             r.inverted_faces,
             r.turned_faces.turned,
-            r.temporal_ratio,
+            r.temporal_ratio
+                .map_or("-".to_string(), |x| format!("{x:.2}")),
             r.median_frame_ms,
             r.median_self_ms
         );

@@ -116,17 +116,52 @@ pub fn frame_metrics(
     output: &[Vec<Point3<f64>>],
 ) -> FrameMetrics {
     let tris = triangles(pre);
-    let after = penetration(output, &tris, h);
-    let turned = turned_faces(&tris, input, skinned, output, h);
+    let before = penetration(input, &tris, h);
+    // A frame the passes left alone (no contact, or `--no-contact`) is its input: measured once.
+    let (after, turned) = if input == output {
+        (before.clone(), metrics::TurnedFaces::default())
+    } else {
+        let turned = turned_faces(&tris, input, skinned, output, h);
+        (penetration(output, &tris, h), turned)
+    };
     FrameMetrics {
         frame,
-        penetrating_before: penetration(input, &tris, h).vertices,
+        penetrating_before: before.vertices,
         penetrating_after: after.vertices,
         max_depth_after_h: after.max_depth / h,
         volume_error: volume_error(&tris, input, output),
         inverted_faces: turned.against_input,
         turned_faces: turned.turned,
         non_finite: output.iter().map(|p| metrics::non_finite(p)).sum(),
+    }
+}
+
+/// One frame measured, with its welded input and output (the bodies one after another), which
+/// the run's [`temporal`] measure needs.
+pub struct Measured {
+    /// The frame's measures.
+    pub metrics: FrameMetrics,
+    /// Its welded input.
+    pub input: Vec<Point3<f64>>,
+    /// Its welded output.
+    pub output: Vec<Point3<f64>>,
+}
+
+impl Measured {
+    /// Measures frame `frame` ([`frame_metrics`]) and keeps its positions.
+    pub fn new(
+        pre: &Precomputed,
+        h: f64,
+        frame: usize,
+        input: &[Vec<Point3<f64>>],
+        skinned: &[Vec<Vector3<f64>>],
+        output: &[Vec<Point3<f64>>],
+    ) -> Self {
+        Self {
+            metrics: frame_metrics(pre, h, frame, input, skinned, output),
+            input: input.concat(),
+            output: output.concat(),
+        }
     }
 }
 
@@ -137,6 +172,25 @@ pub struct Worst<T> {
     pub value: T,
     /// The frame.
     pub frame: usize,
+}
+
+/// `MEASURING.md`'s temporal smoothness over the run (`None` with fewer than three frames):
+/// `inputs` and `outputs` hold every frame's welded positions, the bodies one after another.
+pub fn temporal(
+    h: f64,
+    inputs: &[Vec<Point3<f64>>],
+    outputs: &[Vec<Point3<f64>>],
+) -> Option<Temporal> {
+    (outputs.len() >= 3).then(|| {
+        let s = metrics::second_difference_ratio(outputs, inputs);
+        Temporal {
+            ratio: s.ratio,
+            output_max_h: s.output_max / h,
+            input_max_h: s.input_max / h,
+            frame: s.frame,
+            vertex: s.vertex,
+        }
+    })
 }
 
 /// `MEASURING.md`'s temporal smoothness over the run.
@@ -160,17 +214,17 @@ pub struct Temporal {
 pub struct RunMetrics {
     /// `h`: the rest pose's mean edge length.
     pub h: f64,
-    /// Worst frame of each measure.
+    /// The most penetrating vertices of an input frame.
     pub penetrating_before: Worst<usize>,
-    /// Worst frame of each measure.
+    /// The most penetrating vertices of an output frame.
     pub penetrating_after: Worst<usize>,
-    /// Worst frame of each measure.
+    /// The output's deepest penetration, in `h`.
     pub max_depth_after_h: Worst<f64>,
-    /// Worst frame of each measure.
+    /// The largest relative volume change of a body.
     pub volume_error: Worst<f64>,
-    /// Worst frame of each measure.
+    /// The most faces turned from input to output.
     pub inverted_faces: Worst<usize>,
-    /// Worst frame of each measure.
+    /// The most faces turned by the deformer.
     pub turned_faces: Worst<usize>,
     /// Non-finite output coordinates over the run.
     pub non_finite: usize,
@@ -196,25 +250,15 @@ fn worst<T: PartialOrd + Copy + Default>(
     w
 }
 
-/// The run's measures from its frames' (in order) and the welded positions of every frame,
-/// input and output (bodies in order).
-pub fn run_metrics(
-    h: f64,
-    frames: Vec<FrameMetrics>,
-    inputs: &[Bodies],
-    outputs: &[Bodies],
-) -> RunMetrics {
-    let flat = |s: &[Bodies]| -> Vec<Vec<Point3<f64>>> { s.iter().map(|b| b.concat()).collect() };
-    let temporal = (frames.len() >= 3).then(|| {
-        let s = metrics::second_difference_ratio(&flat(outputs), &flat(inputs));
-        Temporal {
-            ratio: s.ratio,
-            output_max_h: s.output_max / h,
-            input_max_h: s.input_max / h,
-            frame: s.frame,
-            vertex: s.vertex,
-        }
-    });
+/// The run's measures from its frames, in order.
+pub fn run_metrics(h: f64, measured: Vec<Measured>) -> RunMetrics {
+    let (mut frames, mut inputs, mut outputs) = (Vec::new(), Vec::new(), Vec::new());
+    for m in measured {
+        frames.push(m.metrics);
+        inputs.push(m.input);
+        outputs.push(m.output);
+    }
+    let temporal = temporal(h, &inputs, &outputs);
     RunMetrics {
         h,
         penetrating_before: worst(&frames, |f| f.penetrating_before),

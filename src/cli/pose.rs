@@ -4,7 +4,7 @@
 
 use super::contact::{self, median, median_folds, median_stages, BoxError, ContactRun, FoldMs};
 use super::frame_count;
-use super::measure::{self, Bodies, FrameMetrics, RunMetrics};
+use super::measure::{self, Measured, RunMetrics};
 use super::CliResult;
 use contact_skin::frames::{self, Frame, Precomputed};
 use contact_skin::output::{self, glb, obj, Staged};
@@ -229,8 +229,8 @@ struct FrameStats {
     folds_without_direction: usize,
     folds_unbalanced: usize,
     vertices_guarded: usize,
-    /// `--metrics`: the frame measured, and its welded input and output.
-    measured: Option<(FrameMetrics, Bodies, Bodies)>,
+    /// `--metrics`: the frame measured, with its positions.
+    measured: Option<Measured>,
 }
 
 /// Runs `pose`.
@@ -295,21 +295,16 @@ pub fn run(a: &Args) -> CliResult {
         Format::Glb => write_glb(&job, &times)?,
     };
     job.pb.finish_and_clear();
-    let metrics = job.h.map(|h| run_metrics(h, &mut stats));
+    let metrics = job.h.map(|h| take_metrics(h, &mut stats));
     let mut summary = summarize(&job, method, &times, files, &stats, precompute_ms, start);
     summary.metrics = metrics;
     print_summary(&summary, a)
 }
 
 /// The run's measures, taken out of the frames' statistics (in frame order).
-fn run_metrics(h: f64, stats: &mut [FrameStats]) -> RunMetrics {
-    let (mut frames, mut inputs, mut outputs) = (Vec::new(), Vec::new(), Vec::new());
-    for (m, input, output) in stats.iter_mut().filter_map(|s| s.measured.take()) {
-        frames.push(m);
-        inputs.push(input);
-        outputs.push(output);
-    }
-    measure::run_metrics(h, frames, &inputs, &outputs)
+fn take_metrics(h: f64, stats: &mut [FrameStats]) -> RunMetrics {
+    let measured = stats.iter_mut().filter_map(|s| s.measured.take()).collect();
+    measure::run_metrics(h, measured)
 }
 
 fn header(
@@ -590,8 +585,7 @@ fn compute_unchecked(
             measured: job.h.map(|h| {
                 let input = frame.welded(job.pre);
                 let normals = frame.welded_normals(job.pre);
-                let m = measure::frame_metrics(job.pre, h, i, &input, &normals, &input);
-                (m, input.clone(), input)
+                Measured::new(job.pre, h, i, &input, &normals, &input)
             }),
         };
         return Ok((frame, stats, None));
@@ -620,8 +614,7 @@ fn compute_unchecked(
         measured: job.h.map(|h| {
             let input = cf.input.welded(job.pre);
             let normals = cf.input.welded_normals(job.pre);
-            let m = measure::frame_metrics(job.pre, h, i, &input, &normals, &cf.positions);
-            (m, input, cf.positions.clone())
+            Measured::new(job.pre, h, i, &input, &normals, &cf.positions)
         }),
     };
     Ok((cf.frame, stats, diagnostics))
