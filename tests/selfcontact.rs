@@ -410,8 +410,12 @@ struct FoldFrame {
 
 impl CapsuleFold {
     fn new() -> Self {
+        Self::skinned_with(Method::Lbs)
+    }
+
+    fn skinned_with(method: Method) -> Self {
         use contact_skin::selfcontact::{derive_pairs, fold::FoldPre, BoneAxes};
-        let l = load("bending_capsule", 31);
+        let l = load_with("bending_capsule", 31, method);
         let rest = welded_positions(&l.rig, &l.pre, 0.0, None);
         let pairs = derive_pairs(&l.rig, &l.pre.welded, &RegionOptions::default()).expect("pairs");
         let regions = pairs.into_iter().next().expect("one pair");
@@ -453,21 +457,47 @@ impl CapsuleFold {
     }
 
     fn at(&self, f: usize, params: &FoldParams) -> FoldFrame {
+        self.at_with(&self.pre, 1.0, f, params)
+    }
+
+    /// The same fold with the two working regions' roles exchanged: `W1 ↔ W2`, `β → 1 - β`
+    /// (0 outside both, as before), the faces' lists swapped; `d̂_12` (W1's outward direction)
+    /// is then the negated one.
+    fn swapped(&self) -> contact_skin::selfcontact::fold::FoldPre {
+        use contact_skin::selfcontact::fold::FoldPre;
+        let mut r = self.pre.regions.clone();
+        std::mem::swap(&mut r.w1, &mut r.w2);
+        std::mem::swap(&mut r.w1_faces, &mut r.w2_faces);
+        for (v, b) in r.beta.iter_mut().enumerate() {
+            if r.w1[v] || r.w2[v] {
+                *b = 1.0 - *b;
+            }
+        }
+        let rest = welded_positions(&self.l.rig, &self.l.pre, 0.0, None);
+        FoldPre::new(&rest[0], &self.l.triangles[0], r).expect("swapped fold")
+    }
+
+    /// Frame `f` of the fold `pre` (this one or [`CapsuleFold::swapped`]) with the skeleton's
+    /// direction times `sign`.
+    fn at_with(
+        &self,
+        pre: &contact_skin::selfcontact::fold::FoldPre,
+        sign: f64,
+        f: usize,
+        params: &FoldParams,
+    ) -> FoldFrame {
         use contact_skin::selfcontact::{fold::resolve_detected, skeleton_direction};
         let l = &self.l;
         let input = l.frame(f).swap_remove(0);
         let skinned = l.frame_normals(f).swap_remove(0);
         let pose = l.rig.pose_at(Some(0), l.times[f]);
         let direction =
-            skeleton_direction(&pose, &self.pair, self.axes.leaf_axis).expect("direction");
+            sign * skeleton_direction(&pose, &self.pair, self.axes.leaf_axis).expect("direction");
         let normals = vertex_normals(&input, &l.triangles[0], NormalWeighting::Area);
-        let detection = self
-            .pre
-            .detect(&input, &l.triangles[0])
-            .expect("detection runs");
+        let detection = pre.detect(&input, &l.triangles[0]).expect("detection runs");
         let out = detection.and_then(|d| {
             resolve_detected(
-                &self.pre,
+                pre,
                 &d,
                 &FoldInput {
                     positions: &input,
@@ -488,6 +518,55 @@ impl CapsuleFold {
             normals,
             direction,
             out,
+        }
+    }
+}
+
+/// Exchanging the roles of the two working regions (`W1 ↔ W2`, `β → 1 - β`, `d̂_12 → -d̂_12`,
+/// `k̄ → 1 - k̄`) describes the same fold: the crease cut, the contact between the truncated
+/// parts, `σ d̂`, the blend and the volume solve must give the same surface. Bending capsule
+/// with LBS and CoR input, one material and a stiffer W2, frames from the first contact to
+/// 150°. Measured: 6.5e-15 h at most.
+#[test]
+fn a_fold_is_the_same_with_its_regions_exchanged() {
+    for method in [Method::Lbs, Method::Cor] {
+        let fold = CapsuleFold::skinned_with(method);
+        let swapped = fold.swapped();
+        for stiffness_1 in [0.5, 0.3] {
+            let params = FoldParams {
+                stiffness_1,
+                ..FoldParams::default()
+            };
+            let exchanged = FoldParams {
+                stiffness_1: 1.0 - stiffness_1,
+                ..params
+            };
+            for f in [12, 20, 24, 30] {
+                let (a, b) = (
+                    fold.at(f, &params).out,
+                    fold.at_with(&swapped, -1.0, f, &exchanged).out,
+                );
+                let (Some(a), Some(b)) = (a, b) else {
+                    panic!("{method:?} frame {f}: the capsule folds in both descriptions");
+                };
+                let gap = a
+                    .positions
+                    .iter()
+                    .zip(&b.positions)
+                    .map(|(p, q)| (p - q).norm() / fold.l.h_rest)
+                    .fold(0.0, f64::max);
+                let zones = |o: &contact_skin::selfcontact::fold::FoldOutput| {
+                    o.contact.sides.each_ref().map(|s| s.zone.vertices.len())
+                };
+                let (za, mut zb) = (zones(&a), zones(&b));
+                zb.reverse();
+                println!("{method:?} k̄ {stiffness_1} frame {f}: {gap:.1e} h, zones {za:?}");
+                assert_eq!(za, zb, "{method:?} k̄ {stiffness_1} frame {f}: zones");
+                assert!(
+                    gap < 1e-9,
+                    "{method:?} k̄ {stiffness_1} frame {f}: the descriptions differ by {gap:.2e} h"
+                );
+            }
         }
     }
 }
