@@ -408,20 +408,7 @@ fn summarize(
 }
 
 fn print_summary(s: &Summary, a: &Args) -> CliResult {
-    if let (Some(first), Some(last)) = (s.stale_files.first(), s.stale_files.last()) {
-        eprintln!(
-            "warning: {}: {} frame file(s) of an earlier run left in place ({first}{}), not part \
-             of this run's {} frame(s)",
-            a.out.display(),
-            s.stale_files.len(),
-            if first == last {
-                String::new()
-            } else {
-                format!(" … {last}")
-            },
-            s.frames
-        );
-    }
+    warn_stale(s, a);
     if a.json {
         println!("{}", serde_json::to_string_pretty(s)?);
         return Ok(());
@@ -438,6 +425,34 @@ fn print_summary(s: &Summary, a: &Args) -> CliResult {
         s.files.len() + s.diagnostics,
         a.out.display()
     );
+    print_contact(s);
+    print_self_contact(s);
+    if let Some(m) = &s.metrics {
+        print_metrics(m);
+    }
+    Ok(())
+}
+
+/// The warning about an earlier run's frame files left in the output folder.
+fn warn_stale(s: &Summary, a: &Args) {
+    if let (Some(first), Some(last)) = (s.stale_files.first(), s.stale_files.last()) {
+        eprintln!(
+            "warning: {}: {} frame file(s) of an earlier run left in place ({first}{}), not part \
+             of this run's {} frame(s)",
+            a.out.display(),
+            s.stale_files.len(),
+            if first == last {
+                String::new()
+            } else {
+                format!(" … {last}")
+            },
+            s.frames
+        );
+    }
+}
+
+/// The contact pass's line: frames in contact and median stage times.
+fn print_contact(s: &Summary) {
     if let (Some(passes), Some(t)) = (s.passes, &s.stage_ms) {
         println!(
             "contact ({} pass(es), config {}): {} of {} frames in contact; median ms: intersection {:.3}, mapping {:.3}, zones {:.3}, parametrization {:.3}, directions {:.3}, fields {:.3}, deformation {:.3}, wall {:.3}",
@@ -455,6 +470,11 @@ fn print_summary(s: &Summary, a: &Args) -> CliResult {
             t.wall
         );
     }
+}
+
+/// The self-contact pass's lines: frames with a fold, median step times, Table 1's columns,
+/// and what was skipped, left unresolved or guarded.
+fn print_self_contact(s: &Summary) {
     if let (Some(wall), Some(t)) = (s.self_contact_ms, &s.fold_ms) {
         let folds = if s.folds.is_empty() {
             "none".to_string()
@@ -508,10 +528,6 @@ fn print_summary(s: &Summary, a: &Args) -> CliResult {
             );
         }
     }
-    if let Some(m) = &s.metrics {
-        print_metrics(m);
-    }
-    Ok(())
 }
 
 /// `--metrics` in words: each measure's worst frame.

@@ -22,7 +22,7 @@ use super::bulge::{apply_painted, procedural_bulge, BulgeParams, ContactSample};
 use super::profile::{bulge_basis, Profile};
 use super::volume::{moved_faces, RootChoice, RootKind, VolumeCubic, VolumeError};
 use crate::contact::{ContactSide, SurfaceSample};
-use crate::heat::{Boundary, EdgePoint, HeatError, HeatParams, RegionSolver};
+use crate::heat::{Boundary, CutProblem, EdgePoint, HeatError, HeatParams, RegionSolver};
 use crate::mesh::Region;
 use crate::solve::SolveError;
 use nalgebra::{Point3, Vector3};
@@ -291,18 +291,7 @@ pub fn shape_region(
     let mut stats = DeformStats::default();
     let (boundary, points) = cut_boundary(wr, frame.contacts, &mut stats);
     let mut problem = wr.solver.problem(&local_pos, &boundary)?;
-    let phi = problem.distance(params.heat)?;
-    let floor = params.intersection_extent_factor * intersection_distance(wr, frame.contacts, &phi);
-    let extent = effective_extent(
-        region,
-        &boundary,
-        &phi,
-        params.extent.max(floor),
-        frame.free_border,
-        &mut stats,
-    );
-    stats.extent_floor = floor;
-    let u: Vec<f64> = phi.iter().map(|&p| (p / extent).clamp(0.0, 1.0)).collect();
+    let u = parametrization(wr, frame, params, &boundary, &mut problem, &mut stats)?;
     let t_param = start.elapsed().as_secs_f64();
 
     let dirs = contact_directions(frame.contacts, &points);
@@ -319,14 +308,7 @@ pub fn shape_region(
         .collect();
     let t_dir = start.elapsed().as_secs_f64();
 
-    let amplitudes: Vec<f64> = points
-        .iter()
-        .map(|p| (p.sample.surface_point - p.sample.point).norm())
-        .collect();
-    let mut a = problem.harmonic(&amplitudes)?;
-    let slopes = slope_estimates(&points, &local_pos, &u, &d, &a, &mut stats);
-    let s = problem.harmonic(&slopes)?;
-    fade_with_the_direction(&mut a, &dbar);
+    let (a, s) = guiding_fields(&mut problem, &points, &local_pos, &u, &d, &dbar, &mut stats)?;
     let t_fields = start.elapsed().as_secs_f64();
 
     let zone_local: Vec<bool> = boundary.inside.clone();
@@ -342,21 +324,9 @@ pub fn shape_region(
     let mut out = displace(wr, frame, params, &shape, &mut stats)?;
     let t_def = start.elapsed().as_secs_f64();
 
-    let n = frame.positions.len();
-    let (mut u_mesh, mut zone) = (vec![1.0; n], vec![false; n]);
-    let (mut amp, mut slope) = (vec![0.0; n], vec![0.0; n]);
-    for (l, &v) in region.vertices.iter().enumerate() {
-        u_mesh[v as usize] = u[l];
-        zone[v as usize] = zone_local[l];
-        amp[v as usize] = a[l];
-        slope[v as usize] = s[l];
-    }
-    out.amplitude = amp;
-    out.slope = slope;
+    scatter_fields(&mut out, region, frame.positions.len(), &shape);
     stats.zone_vertices = zone_local.iter().filter(|&&z| z).count();
     stats.boundary_points = points.len();
-    out.u = u_mesh;
-    out.zone = zone;
     out.stats = stats;
     out.timings = DeformTimings {
         factorization: problem.factorization_seconds(),
@@ -366,6 +336,70 @@ pub fn shape_region(
         deformation: t_def - t_fields,
     };
     Ok(out)
+}
+
+/// Lines 32-37: the geodesic distance `φ` from the zones' boundary (heat method, Sec. 5.1)
+/// normalized by the effective extent into `u ∈ [0, 1]` (region-local).
+fn parametrization(
+    wr: &WorkingRegion,
+    frame: &RegionFrame,
+    params: &DeformParams,
+    boundary: &Boundary,
+    problem: &mut CutProblem,
+    stats: &mut DeformStats,
+) -> Result<Vec<f64>, DeformError> {
+    let phi = problem.distance(params.heat)?;
+    let floor = params.intersection_extent_factor * intersection_distance(wr, frame.contacts, &phi);
+    let extent = effective_extent(
+        wr.region(),
+        boundary,
+        &phi,
+        params.extent.max(floor),
+        frame.free_border,
+        stats,
+    );
+    stats.extent_floor = floor;
+    Ok(phi.iter().map(|&p| (p / extent).clamp(0.0, 1.0)).collect())
+}
+
+/// Lines 44-48: the amplitude `a` and slope `s` fields, harmonic from the zones' boundary
+/// points (Sec. 5.2 "Parameter diffusions"), the amplitude then faded where the mapping
+/// field `d̄` fades ([`fade_with_the_direction`]).
+fn guiding_fields(
+    problem: &mut CutProblem,
+    points: &[CutPoint],
+    local_pos: &[Point3<f64>],
+    u: &[f64],
+    d: &[Vector3<f64>],
+    dbar: &[Vector3<f64>],
+    stats: &mut DeformStats,
+) -> Result<(Vec<f64>, Vec<f64>), DeformError> {
+    let amplitudes: Vec<f64> = points
+        .iter()
+        .map(|p| (p.sample.surface_point - p.sample.point).norm())
+        .collect();
+    let mut a = problem.harmonic(&amplitudes)?;
+    let slopes = slope_estimates(points, local_pos, u, d, &a, stats);
+    let s = problem.harmonic(&slopes)?;
+    fade_with_the_direction(&mut a, dbar);
+    Ok((a, s))
+}
+
+/// Scatters the region-local `u`, zone, `a` and `s` of `shape` over the `n` mesh vertices
+/// (`u = 1`, no zone and 0 outside the region).
+fn scatter_fields(out: &mut RegionDeformation, region: &Region, n: usize, shape: &Shape) {
+    let (mut u_mesh, mut zone) = (vec![1.0; n], vec![false; n]);
+    let (mut amp, mut slope) = (vec![0.0; n], vec![0.0; n]);
+    for (l, &v) in region.vertices.iter().enumerate() {
+        u_mesh[v as usize] = shape.u[l];
+        zone[v as usize] = shape.zone[l];
+        amp[v as usize] = shape.a[l];
+        slope[v as usize] = shape.s[l];
+    }
+    out.amplitude = amp;
+    out.slope = slope;
+    out.u = u_mesh;
+    out.zone = zone;
 }
 
 fn check_counts(wr: &WorkingRegion, frame: &RegionFrame) -> Result<(), DeformError> {

@@ -790,15 +790,12 @@ pub fn residual_penetration(
 
 /// [`residual_penetration`] with optional body labels per vertex (bodies are never joined).
 fn penetration_labeled(
-    scene_positions: &[Point3<f64>],
-    scene_triangles: &[[u32; 3]],
+    positions: &[Point3<f64>],
+    triangles: &[[u32; 3]],
     normals: &[Vector3<f64>],
     h: f64,
     labels: Option<&[u32]>,
 ) -> Penetration {
-    let positions = scene_positions;
-    let triangles = scene_triangles;
-    let nv = positions.len();
     let valid: Vec<bool> = triangles
         .iter()
         .map(|t| corners(positions, t).is_some())
@@ -808,8 +805,39 @@ fn penetration_labeled(
     } else {
         valid_mean_edge_length(positions, triangles, &valid)
     };
+    let (evaluated, skipped) = surface_vertices(positions, triangles, normals);
+    let winding = WindingNumber::new(positions, triangles);
+    let flagged = inside_when_nudged(&winding, positions, &evaluated, h);
+    if flagged.is_empty() {
+        return Penetration {
+            skipped,
+            ..Penetration::default()
+        };
+    }
+    let topo = Topology::new(positions, triangles, &valid, labels);
+    let depths = flagged_depths(&winding, &topo, positions, triangles, &flagged);
+    let max_depth = depths
+        .iter()
+        .copied()
+        .filter(|d| d.is_finite())
+        .fold(0.0, f64::max);
+    Penetration {
+        vertices: flagged.len(),
+        max_depth,
+        flagged: flagged.iter().map(|(v, _)| *v).collect(),
+        depths,
+        skipped,
+    }
+}
 
-    // Surface vertices, their unit normals, the nudged points.
+/// The vertices of `triangles` with a finite position and normal, with their unit normal, and
+/// how many surface vertices were skipped for want of one.
+fn surface_vertices(
+    positions: &[Point3<f64>],
+    triangles: &[[u32; 3]],
+    normals: &[Vector3<f64>],
+) -> (Vec<(u32, Vector3<f64>)>, usize) {
+    let nv = positions.len();
     let mut used = vec![false; nv];
     for t in triangles {
         if t.iter().all(|&i| (i as usize) < nv) {
@@ -833,27 +861,40 @@ fn penetration_labeled(
             _ => skipped += 1,
         }
     }
-    let winding = WindingNumber::new(positions, triangles);
+    (evaluated, skipped)
+}
+
+/// The `evaluated` vertices whose point nudged inward by [`PENETRATION_NUDGE`] `h` has a
+/// winding number of at least [`PENETRATION_THRESHOLD`] (inside twice).
+fn inside_when_nudged(
+    winding: &WindingNumber,
+    positions: &[Point3<f64>],
+    evaluated: &[(u32, Vector3<f64>)],
+    h: f64,
+) -> Vec<(u32, Vector3<f64>)> {
     let nudged: Vec<Point3<f64>> = evaluated
         .iter()
         .map(|(v, n)| positions[*v as usize] - n * (PENETRATION_NUDGE * h))
         .collect();
     let w = winding.query_many(&nudged);
-    let flagged: Vec<(u32, Vector3<f64>)> = evaluated
+    evaluated
         .iter()
         .zip(&w)
         .filter(|(_, &w)| w >= PENETRATION_THRESHOLD)
         .map(|(e, _)| *e)
-        .collect();
-    if flagged.is_empty() {
-        return Penetration {
-            skipped,
-            ..Penetration::default()
-        };
-    }
+        .collect()
+}
 
-    // Depths.
-    let topo = Topology::new(positions, triangles, &valid, labels);
+/// Depth of each `flagged` vertex: its distance to the nearest face of another component, or of
+/// its own beyond [`DEPTH_EXCLUDED_RINGS`] rings that faces away from its normal (else any
+/// such face).
+fn flagged_depths(
+    winding: &WindingNumber,
+    topo: &Topology,
+    positions: &[Point3<f64>],
+    triangles: &[[u32; 3]],
+    flagged: &[(u32, Vector3<f64>)],
+) -> Vec<f64> {
     let face_normals: Vec<Vector3<f64>> = triangles
         .iter()
         .map(|t| {
@@ -862,7 +903,7 @@ fn penetration_labeled(
                 .unwrap_or_else(Vector3::zeros)
         })
         .collect();
-    let depths: Vec<f64> = flagged
+    flagged
         .par_iter()
         .map(|&(v, n)| {
             let wv = topo.welded[v as usize];
@@ -883,19 +924,7 @@ fn penetration_labeled(
                 .or_else(|| winding.bvh.nearest(p, |f| other(f) || !near(f)))
                 .map_or(0.0, |(d2, _)| d2.sqrt())
         })
-        .collect();
-    let max_depth = depths
-        .iter()
-        .copied()
-        .filter(|d| d.is_finite())
-        .fold(0.0, f64::max);
-    Penetration {
-        vertices: flagged.len(),
-        max_depth,
-        flagged: flagged.iter().map(|(v, _)| *v).collect(),
-        depths,
-        skipped,
-    }
+        .collect()
 }
 
 /// One closed body for [`residual_penetration_bodies`]: positions, triangles, vertex normals.

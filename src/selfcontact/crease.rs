@@ -82,71 +82,22 @@ pub struct Crease {
 pub fn crease_cut(input: &CreaseInput, params: &CreaseParams) -> Result<Crease, MinCutError> {
     let n = input.positions.len();
     let shared: Vec<bool> = (0..n).map(|v| input.w1[v] && input.w2[v]).collect();
+    let verts: Vec<u32> = (0..n as u32).filter(|&v| shared[v as usize]).collect();
     let mut node = vec![u32::MAX; n];
-    let mut verts = Vec::new();
-    for v in 0..n {
-        if shared[v] {
-            node[v] = verts.len() as u32;
-            verts.push(v as u32);
-        }
+    for (k, &v) in verts.iter().enumerate() {
+        node[v as usize] = k as u32;
     }
     let edges = region_edges(input);
-    let mean_edge = mean_length(input.positions, &edges).max(1e-300);
     let mut g = CutGraph::new(verts.len());
-    let mut area = vec![0.0; n];
-    for &f in input.faces {
-        let t = input.triangles[f as usize];
-        let [a, b, c] = t.map(|v| input.positions[v as usize]);
-        let third = (b - a).cross(&(c - a)).norm() / 6.0;
-        for v in t {
-            area[v as usize] += third;
-        }
-    }
-    let (mut to_w1, mut to_w2) = (vec![false; n], vec![false; n]);
-    for e in &edges {
-        let [a, b] = e.ends;
-        let (sa, sb) = (shared[a as usize], shared[b as usize]);
-        if sa && sb {
-            let cap = e.dual * (0.1 + min_facing(input, a, b));
-            g.add_edge(
-                node[a as usize] as usize,
-                node[b as usize] as usize,
-                cap,
-                cap,
-            )?;
-        }
-        for (s, o) in [(a, b), (b, a)] {
-            if shared[s as usize] && !shared[o as usize] {
-                to_w1[s as usize] |= input.w1[o as usize];
-                to_w2[s as usize] |= input.w2[o as usize];
-            }
-        }
-    }
-    let near_intersection = ring(input, &edges, input.intersecting);
+    let borders = add_edges(&mut g, input, &edges, &shared, &node)?;
+    let terms = VertexTerms {
+        area: vertex_areas(input),
+        near_intersection: ring(input, &edges, input.intersecting),
+        mean_edge: mean_length(input.positions, &edges).max(1e-300),
+        borders,
+    };
     for (k, &v) in verts.iter().enumerate() {
-        let v = v as usize;
-        let (mut src, mut snk) = (0.0, 0.0);
-        if to_w1[v] && !to_w2[v] {
-            src = f64::INFINITY;
-        } else if to_w2[v] && !to_w1[v] {
-            snk = f64::INFINITY;
-        } else if near_intersection[v] {
-            let g = input.normals[v].dot(&input.direction);
-            let w = params.intersection_weight / mean_edge * area[v] * g.abs();
-            if g > 0.0 {
-                src = w
-            } else {
-                snk = w
-            }
-        } else {
-            let b = input.beta[v].clamp(0.0, 1.0);
-            let w = params.beta_weight / mean_edge * area[v] * (2.0 * b - 1.0).abs();
-            if b > 0.5 {
-                src = w
-            } else {
-                snk = w
-            }
-        }
+        let (src, snk) = terms.of(input, params, v as usize);
         g.add_terminal(k, src, snk)?;
     }
     let cut = min_cut(&g)?;
@@ -160,6 +111,82 @@ pub fn crease_cut(input: &CreaseInput, params: &CreaseParams) -> Result<Crease, 
         value: cut.value,
         stray,
     })
+}
+
+/// Adds the edges inside `R` with capacity `ℓ*_ij (0.1 + min |n·d̂|)` both ways; returns, per
+/// mesh vertex, whether it is a vertex of `R` adjacent to `W1 \ R` and to `W2 \ R`.
+fn add_edges(
+    g: &mut CutGraph,
+    input: &CreaseInput,
+    edges: &[Edge],
+    shared: &[bool],
+    node: &[u32],
+) -> Result<Vec<(bool, bool)>, MinCutError> {
+    let mut borders = vec![(false, false); shared.len()];
+    for e in edges {
+        let [a, b] = e.ends;
+        if shared[a as usize] && shared[b as usize] {
+            let cap = e.dual * (0.1 + min_facing(input, a, b));
+            g.add_edge(
+                node[a as usize] as usize,
+                node[b as usize] as usize,
+                cap,
+                cap,
+            )?;
+        }
+        for (s, o) in [(a, b), (b, a)] {
+            if shared[s as usize] && !shared[o as usize] {
+                borders[s as usize].0 |= input.w1[o as usize];
+                borders[s as usize].1 |= input.w2[o as usize];
+            }
+        }
+    }
+    Ok(borders)
+}
+
+/// Barycentric vertex areas over the faces of `W1 ∪ W2`.
+fn vertex_areas(input: &CreaseInput) -> Vec<f64> {
+    let mut area = vec![0.0; input.positions.len()];
+    for &f in input.faces {
+        let t = input.triangles[f as usize];
+        let [a, b, c] = t.map(|v| input.positions[v as usize]);
+        let third = (b - a).cross(&(c - a)).norm() / 6.0;
+        for v in t {
+            area[v as usize] += third;
+        }
+    }
+    area
+}
+
+/// What the terminal capacities of a vertex of `R` depend on.
+struct VertexTerms {
+    area: Vec<f64>,
+    near_intersection: Vec<bool>,
+    mean_edge: f64,
+    /// Per mesh vertex: adjacent to `W1 \ R`, to `W2 \ R`.
+    borders: Vec<(bool, bool)>,
+}
+
+impl VertexTerms {
+    /// `(source, sink)` capacities of vertex `v` of `R`: infinite toward the only side it
+    /// borders; else the intersection term near the intersection, the `β` term elsewhere.
+    fn of(&self, input: &CreaseInput, params: &CreaseParams, v: usize) -> (f64, f64) {
+        let toward = |w1: bool, w: f64| if w1 { (w, 0.0) } else { (0.0, w) };
+        match self.borders[v] {
+            (true, false) => (f64::INFINITY, 0.0),
+            (false, true) => (0.0, f64::INFINITY),
+            _ if self.near_intersection[v] => {
+                let g = input.normals[v].dot(&input.direction);
+                let w = params.intersection_weight / self.mean_edge * self.area[v] * g.abs();
+                toward(g > 0.0, w)
+            }
+            _ => {
+                let b = input.beta[v].clamp(0.0, 1.0);
+                let w = params.beta_weight / self.mean_edge * self.area[v] * (2.0 * b - 1.0).abs();
+                toward(b > 0.5, w)
+            }
+        }
+    }
 }
 
 /// An edge of `W1 ∪ W2` with its dual length.
