@@ -392,12 +392,16 @@ impl TriangleBvh {
 /// under a bone scaled to 0), which meets nothing: otherwise every such face overlaps every
 /// other at that point and the pair queries turn quadratic (measured: a 3322-vertex capsule
 /// scaled to 0 took a minute per frame).
+/// (A box with `min == max` is one point: the three corners are equal.)
+#[inline]
 fn face_box(positions: &[Point3<f64>], t: &[u32; 3]) -> Aabb {
-    let [a, b, c] = t.map(|i| &positions[i as usize]);
-    if a == b && b == c {
-        return Aabb::EMPTY;
+    let b = Aabb::of_triangle(t.map(|i| &positions[i as usize]));
+    // Axis by axis: the first comparison almost always settles it.
+    if b.min.x == b.max.x && b.min.y == b.max.y && b.min.z == b.max.z {
+        Aabb::EMPTY
+    } else {
+        b
     }
-    Aabb::of_triangle([a, b, c])
 }
 
 /// Builds the node array (children after their parent) and permutes `order` into leaf order.
