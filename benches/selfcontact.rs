@@ -1,9 +1,11 @@
 //! The self-contact pass (2021 Sec. 6) per frame, with its per-step breakdown: detection,
 //! crease cut, contact on the truncated regions (Sec. 4.2-4.4), direction field `σ`, the two
 //! regions' deformation (Sec. 5), blend and volume. Scenes: the committed `finger.glb` (three
-//! joints; the paper's skinned finger has 1967 + 2951 vertices) and `bending_capsule.glb`, LBS
-//! input, default parameters, one thread (and the finger on two threads: a fold's two regions
-//! run in parallel).
+//! joints; its metacarpal-proximal regions have 1361 + 2961 vertices), `finger_long.glb` (the
+//! same finger with a longer metacarpal stub: 1961 + 2961, the size of the paper's skinned
+//! finger, 1967 + 2951, whose one joint takes 13.6 ms in its Table 1) and
+//! `bending_capsule.glb`, LBS input, default parameters, one thread (and the finger on two
+//! threads: a fold's two regions run in parallel).
 //!
 //! Run with `cargo bench --bench selfcontact`.
 
@@ -137,7 +139,7 @@ fn bench(c: &mut Criterion) {
         .build()
         .expect("pool");
     pool.install(|| {
-        for name in ["finger", "bending_capsule"] {
+        for name in ["finger", "finger_long", "bending_capsule"] {
             breakdown(name, 1, 1);
             breakdown(name, 2, 1);
         }
@@ -150,7 +152,7 @@ fn bench(c: &mut Criterion) {
         .install(|| breakdown("finger", 1, 2));
     let mut g = c.benchmark_group("selfcontact");
     g.measurement_time(Duration::from_secs(5)).sample_size(10);
-    for name in ["finger", "bending_capsule"] {
+    for name in ["finger", "finger_long", "bending_capsule"] {
         let (rig, pre, pass, times) = setup(name, 1);
         let t = *times.last().unwrap_or(&0.0);
         let input = frames::welded_positions(&rig, &pre, Some(0), t);

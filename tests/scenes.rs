@@ -22,7 +22,7 @@ fn load(scene: Scene, resolution: u32) -> Rig {
 fn expected_bodies(scene: Scene) -> &'static [&'static str] {
     match scene {
         Scene::BendingCapsule => &["capsule"],
-        Scene::Finger => &["finger"],
+        Scene::Finger | Scene::FingerLong => &["finger"],
         Scene::Mouth => &["lips"],
         Scene::CapsulePair => &["capsule_lower", "capsule_upper"],
         Scene::FingertipsOnBall => &["ball", "thumb", "index", "middle"],
@@ -33,7 +33,7 @@ fn expected_bodies(scene: Scene) -> &'static [&'static str] {
 fn expected_animations(scene: Scene) -> &'static [&'static str] {
     match scene {
         Scene::BendingCapsule => &["bend", "twist"],
-        Scene::Finger => &["flex"],
+        Scene::Finger | Scene::FingerLong => &["flex"],
         Scene::Mouth => &["close"],
         Scene::CapsulePair | Scene::SphereOnPlane => &["press"],
         Scene::FingertipsOnBall => &["squeeze"],

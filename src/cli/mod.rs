@@ -46,8 +46,8 @@ struct GenerateArgs {
     /// Tessellation resolution (see rigs/README.md for the mapping).
     #[arg(long, short, default_value_t = contact_skin::scenes::DEFAULT_RESOLUTION)]
     resolution: u32,
-    /// Only these scenes (default: all). Names: bending_capsule, finger, mouth, capsule_pair,
-    /// fingertips_ball, sphere_plane.
+    /// Only these scenes (default: all). Names: bending_capsule, finger, finger_long, mouth,
+    /// capsule_pair, fingertips_ball, sphere_plane.
     #[arg(long = "scene")]
     scenes: Vec<String>,
 }

@@ -1,4 +1,4 @@
-//! The six scenes: geometry, skeleton, skin weights and animation of each.
+//! The seven scenes: geometry, skeleton, skin weights and animation of each.
 //!
 //! Conventions: +Y up, lengths in meters-ish scene units, animations LINEAR with keys every
 //! [`KEY_STEP`] seconds or so, starting at the rest pose. Each scene meshes all its bodies with
@@ -164,44 +164,58 @@ const FINGER_STATIONS: [(f64, f64); 5] = [
 /// (with 110° everywhere the tip would sink about 0.02 into them: a second kind of contact).
 const FINGER_FLEX: [f64; 3] = [100.0, 110.0, 100.0];
 
+/// How far the metacarpal stub of [`finger_long`] reaches behind the committed finger's: its
+/// metacarpal-proximal working regions then have the size of the paper's skinned finger (its
+/// Table 1: 1967 + 2951 vertices; here 1961 + 2961 at the default resolution, against
+/// 1361 + 2961 for `finger.glb`).
+const FINGER_LONG_EXTRA: f64 = 0.22;
+
 /// A tapered finger along +Y: a metacarpal stub and three phalanges (0.45, 0.28, 0.22 long) on
 /// one mesh, each joint blended over about one radius; "flex" bends the three joints toward +Z
 /// (the palm side) together, about +X, to [`FINGER_FLEX`].
 pub(crate) fn finger(resolution: u32) -> SceneSpec {
+    finger_with("finger", resolution, FINGER_STATIONS)
+}
+
+/// [`finger`] with a metacarpal stub [`FINGER_LONG_EXTRA`] longer (the same joints, bands and
+/// animation): the benchmark's finger at the paper's size.
+pub(crate) fn finger_long(resolution: u32) -> SceneSpec {
+    let mut stations = FINGER_STATIONS;
+    stations[0].0 -= FINGER_LONG_EXTRA;
+    finger_with("finger_long", resolution, stations)
+}
+
+/// A finger named `name` with the radius profile `stations` (end cap, MCP, PIP, DIP, end cap;
+/// the metacarpal joint at the first cap's center).
+fn finger_with(name: &'static str, resolution: u32, stations: [(f64, f64); 5]) -> SceneSpec {
     let h = FINGER_REF / f64::from(resolution);
-    let mesh = shapes::tapered_tube(
-        &Frame::along(Point3::origin(), Vector3::y()),
-        &FINGER_STATIONS,
-        h,
-    );
-    let bands: Vec<(f64, f64)> = FINGER_STATIONS[1..4]
-        .iter()
-        .map(|&(y, r)| (y, 0.5 * r))
-        .collect();
+    let mesh = shapes::tapered_tube(&Frame::along(Point3::origin(), Vector3::y()), &stations, h);
+    let bands: Vec<(f64, f64)> = stations[1..4].iter().map(|&(y, r)| (y, 0.5 * r)).collect();
     let influences = mesh
         .positions
         .iter()
         .map(|p| chain_influence(p.y, &bands))
         .collect();
-    let mut joints = vec![Joint::at("metacarpal", None, Vector3::zeros())];
+    let root = Vector3::new(0.0, stations[0].0, 0.0);
+    let mut joints = vec![Joint::at("metacarpal", None, root)];
     let names = ["proximal", "middle", "distal"];
     for (k, name) in names.into_iter().enumerate() {
-        // The metacarpal joint sits at station 0 (y = 0), each other joint at its station.
-        let along = FINGER_STATIONS[k + 1].0 - FINGER_STATIONS[k].0;
+        // The metacarpal joint sits at station 0, each other joint at its station.
+        let along = stations[k + 1].0 - stations[k].0;
         joints.push(Joint::at(name, Some(k), Vector3::new(0.0, along, 0.0)));
     }
     let tracks = (0..3)
         .map(|k| rotation_ramp(k + 1, Vector3::x(), FINGER_FLEX[k], [0.0, 3.0, 3.0]))
         .collect();
     SceneSpec {
-        name: "finger",
+        name,
         joints,
         bodies: vec![SkinnedBody {
             name: "finger",
             mesh,
             skin: vec![0, 1, 2, 3],
             influences,
-            analytic_volume: shapes::tapered_tube_volume(&FINGER_STATIONS),
+            analytic_volume: shapes::tapered_tube_volume(&stations),
         }],
         clips: vec![Clip {
             name: "flex",

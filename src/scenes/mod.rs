@@ -40,6 +40,9 @@ pub enum Scene {
     BendingCapsule,
     /// A tapered three-phalanx finger flexing past contact (Fig. 15).
     Finger,
+    /// [`Scene::Finger`] with a longer metacarpal stub: the metacarpal-proximal fold at the
+    /// size of the paper's skinned finger (Table 1), for the benchmark.
+    FingerLong,
     /// Upper and lower lip on one mesh, a jaw closing past contact (Fig. 1d).
     Mouth,
     /// Two separate capsules crossing, one pressed into the other (Figs. 5, 6).
@@ -52,9 +55,10 @@ pub enum Scene {
 
 impl Scene {
     /// Every scene, in a fixed order.
-    pub const ALL: [Scene; 6] = [
+    pub const ALL: [Scene; 7] = [
         Scene::BendingCapsule,
         Scene::Finger,
+        Scene::FingerLong,
         Scene::Mouth,
         Scene::CapsulePair,
         Scene::FingertipsOnBall,
@@ -66,6 +70,7 @@ impl Scene {
         match self {
             Scene::BendingCapsule => "bending_capsule",
             Scene::Finger => "finger",
+            Scene::FingerLong => "finger_long",
             Scene::Mouth => "mouth",
             Scene::CapsulePair => "capsule_pair",
             Scene::FingertipsOnBall => "fingertips_ball",
@@ -88,6 +93,10 @@ impl Scene {
             Scene::Finger => {
                 "a tapered finger on one mesh: metacarpal stub and three phalanges, 4 bones; 'flex' \
                  bends MCP/PIP/DIP to 100/110/100 deg toward +Z, past contact (Fig. 15)"
+            }
+            Scene::FingerLong => {
+                "the finger with a metacarpal stub 0.22 longer: its MCP working regions have the size \
+                 of the paper's skinned finger (Table 1, 1967 + 2951 vertices), for the benchmark"
             }
             Scene::Mouth => {
                 "upper and lower lip as one ring mesh (slit 0.1 high), head and jaw bones; 'close' turns \
@@ -112,7 +121,7 @@ impl Scene {
     pub fn reference_length(self) -> f64 {
         match self {
             Scene::BendingCapsule => catalog::BENDING_CAPSULE_REF,
-            Scene::Finger => catalog::FINGER_REF,
+            Scene::Finger | Scene::FingerLong => catalog::FINGER_REF,
             Scene::Mouth => catalog::MOUTH_REF,
             Scene::CapsulePair => catalog::CAPSULE_PAIR_REF,
             Scene::FingertipsOnBall => catalog::FINGERTIPS_BALL_REF,
@@ -130,6 +139,7 @@ impl Scene {
         Ok(match self {
             Scene::BendingCapsule => catalog::bending_capsule(resolution),
             Scene::Finger => catalog::finger(resolution),
+            Scene::FingerLong => catalog::finger_long(resolution),
             Scene::Mouth => catalog::mouth(resolution),
             Scene::CapsulePair => catalog::capsule_pair(resolution),
             Scene::FingertipsOnBall => catalog::fingertips_ball(resolution),
