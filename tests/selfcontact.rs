@@ -269,6 +269,23 @@ fn finger_folds() {
     check("finger", &r, 0, 0, 3.0);
 }
 
+/// The LBS folds sampled at their animations' own rate (30 per second: 76 frames of the
+/// capsule's bend, 91 of the finger's flex), where the 31-frame tests above are 2.5-3 times
+/// coarser. The temporal ratio weighs a kink in a vertex's motion (its velocity changing at
+/// once, as when a zone's edge crosses it) by the frame rate: measured 5.74 on the capsule
+/// (0.24 h at frame 53, vertices 1991 and 1351, where W2's zone reaches them from the far
+/// side; 1.78 at 31 frames), above the issue's bound of 3, and 1.75 on the finger, which also
+/// keeps one penetrating vertex at frames 85 and 89 (0 at 31 frames). The bounds below are those
+/// measurements with a margin, not the issue's targets: this test guards the state the issue
+/// note reports.
+#[test]
+fn lbs_folds_at_the_animations_frame_rate() {
+    let capsule = run("bending_capsule", 76, &[]);
+    check("bending_capsule", &capsule, 0, 0, 6.5);
+    let finger = run("finger", 91, &[]);
+    check("finger", &finger, 1, 0, 2.0);
+}
+
 /// The mouth closing, with the paper's hand-set vertical direction (Fig. 1d): the upper lip's
 /// outward direction is -Y. The jaw stops abruptly (frame 24 of 31); sampled twice as finely,
 /// the output's largest second difference must halve like the input's (a pop keeps its size).
