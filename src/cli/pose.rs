@@ -95,9 +95,11 @@ pub struct Args {
     json: bool,
     /// Also measure every frame against its skinned input (MEASURING.md): penetrating
     /// vertices before and after, largest depth, volume error, inverted and turned faces,
-    /// non-finite values, and the run's temporal second-difference ratio; printed and in the
-    /// JSON summary (`metrics`). Keeps every frame's welded positions, input and output, in
-    /// memory (48 bytes per vertex per frame).
+    /// non-finite values, and the run's temporal second-difference ratio (the output's largest
+    /// second difference over the input's: it grows with `--frames` where a vertex's motion
+    /// kinks, so compare runs at one frame count); printed and in the JSON summary
+    /// (`metrics`). Keeps every frame's welded positions, input and output, in memory (48
+    /// bytes per vertex per frame).
     #[arg(long)]
     metrics: bool,
 }
