@@ -1,4 +1,4 @@
-//! Writes the six procedural test scenes as `.glb` files.
+//! Writes the seven procedural test scenes as `.glb` files.
 //!
 //! ```text
 //! cargo run --release --example generate_rigs -- [DIR] [RESOLUTION]

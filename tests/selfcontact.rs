@@ -261,28 +261,45 @@ fn bending_capsule_fold_dqs() {
     volume_preserving_input(Method::Dqs);
 }
 
-/// The finger's three joints flexing past contact.
+/// The finger's three joints flexing past contact; and `finger_long`, the benchmark's finger
+/// at the paper's size (a longer metacarpal stub), which must fold as well.
 #[test]
 fn finger_folds() {
     let r = run("finger", 31, &[]);
     assert_eq!(r.pairs.len(), 3);
     check("finger", &r, 0, 0, 3.0);
+    let long = run("finger_long", 31, &[]);
+    assert_eq!(long.pairs.len(), 3);
+    check("finger_long", &long, 0, 0, 3.0);
+}
+
+/// The frame count of `name`'s first animation sampled at its own rate (30 per second).
+fn native_frames(name: &str) -> usize {
+    let l = load(name, 2);
+    contact_skin::frames::sample_times(&l.rig, Some(0), None)
+        .expect("frames")
+        .len()
 }
 
 /// The LBS folds sampled at their animations' own rate (30 per second: 76 frames of the
 /// capsule's bend, 91 of the finger's flex), where the 31-frame tests above are 2.5-3 times
-/// coarser. The temporal ratio weighs a kink in a vertex's motion (its velocity changing at
-/// once, as when a zone's edge crosses it) by the frame rate: measured 5.74 on the capsule
-/// (0.24 h at frame 53, vertices 1991 and 1351, where W2's zone reaches them from the far
-/// side; 1.78 at 31 frames), above the issue's bound of 3, and 1.75 on the finger, which also
-/// keeps one penetrating vertex at frames 85 and 89 (0 at 31 frames). The bounds below are those
-/// measurements with a margin, not the issue's targets: this test guards the state the issue
-/// note reports.
+/// coarser. The capsule's output pops: its largest second difference stays at about 0.2 h
+/// however finely it is sampled (0.24 h at frame 53 of 76, vertices 1991 and 1351, where W2's
+/// zone takes 12 vertices at once as the crease cut flips between two rings), while the
+/// input's shrinks with the square of the step, so the ratio grows with the square of the
+/// frame count: 1.78 at 31 frames, 5.74 at 76, above the issue's bound of 3. The finger: 1.75,
+/// and one penetrating vertex at frames 85 and 89 (0 at 31 frames). The bounds below are
+/// those measurements with a margin, not the issue's targets: this test guards the state the
+/// issue note reports.
 #[test]
 fn lbs_folds_at_the_animations_frame_rate() {
-    let capsule = run("bending_capsule", 76, &[]);
+    let frames = native_frames("bending_capsule");
+    assert_eq!(frames, 76);
+    let capsule = run("bending_capsule", frames, &[]);
     check("bending_capsule", &capsule, 0, 0, 6.5);
-    let finger = run("finger", 91, &[]);
+    let frames = native_frames("finger");
+    assert_eq!(frames, 91);
+    let finger = run("finger", frames, &[]);
     check("finger", &finger, 1, 0, 2.0);
 }
 
@@ -541,14 +558,16 @@ impl CapsuleFold {
 
 /// Exchanging the roles of the two working regions (`W1 ↔ W2`, `β → 1 - β`, `d̂_12 → -d̂_12`,
 /// `k̄ → 1 - k̄`) describes the same fold: the crease cut, the contact between the truncated
-/// parts, `σ d̂`, the blend and the volume solve must give the same surface. Bending capsule
-/// with LBS and CoR input, one material and a stiffer W2, frames from the first contact to
-/// 150°. Measured: 6.5e-15 h at most.
+/// parts, `σ d̂`, the blend, the volume solve and the turn guard must give the same surface.
+/// Bending capsule with LBS and CoR input, one material and a stiffer W2, every frame with a
+/// fold (from frame 8 of 31 to 150°): the same cut (complemented), the same zones (swapped),
+/// the same positions. Measured: 6.7e-15 h at most.
 #[test]
 fn a_fold_is_the_same_with_its_regions_exchanged() {
     for method in [Method::Lbs, Method::Cor] {
         let fold = CapsuleFold::skinned_with(method);
         let swapped = fold.swapped();
+        let r = &fold.pre.regions;
         for stiffness_1 in [0.5, 0.3] {
             let params = FoldParams {
                 stiffness_1,
@@ -558,32 +577,42 @@ fn a_fold_is_the_same_with_its_regions_exchanged() {
                 stiffness_1: 1.0 - stiffness_1,
                 ..params
             };
-            for f in [12, 20, 24, 30] {
+            let (mut folds, mut worst) = (0, 0.0f64);
+            for f in 0..31 {
                 let (a, b) = (
                     fold.at(f, &params).out,
                     fold.at_with(&swapped, -1.0, f, &exchanged).out,
                 );
-                let (Some(a), Some(b)) = (a, b) else {
-                    panic!("{method:?} frame {f}: the capsule folds in both descriptions");
+                let label = format!("{method:?} k̄ {stiffness_1} frame {f}");
+                let (a, b) = match (a, b) {
+                    (Some(a), Some(b)) => (a, b),
+                    (None, None) => continue,
+                    _ => panic!("{label}: a fold in one description only"),
                 };
+                let cut_differs = (0..r.w1.len())
+                    .filter(|&v| r.w1[v] && r.w2[v])
+                    .any(|v| a.crease.on_w1[v] == b.crease.on_w1[v]);
+                assert!(!cut_differs, "{label}: the crease cuts are not complements");
+                let zone = |o: &contact_skin::selfcontact::fold::FoldOutput, k: usize| {
+                    o.contact.sides[k].zone.vertices.clone()
+                };
+                assert_eq!(zone(&a, 0), zone(&b, 1), "{label}: W1's zone");
+                assert_eq!(zone(&a, 1), zone(&b, 0), "{label}: W2's zone");
                 let gap = a
                     .positions
                     .iter()
                     .zip(&b.positions)
                     .map(|(p, q)| (p - q).norm() / fold.l.h_rest)
                     .fold(0.0, f64::max);
-                let zones = |o: &contact_skin::selfcontact::fold::FoldOutput| {
-                    o.contact.sides.each_ref().map(|s| s.zone.vertices.len())
-                };
-                let (za, mut zb) = (zones(&a), zones(&b));
-                zb.reverse();
-                println!("{method:?} k̄ {stiffness_1} frame {f}: {gap:.1e} h, zones {za:?}");
-                assert_eq!(za, zb, "{method:?} k̄ {stiffness_1} frame {f}: zones");
                 assert!(
                     gap < 1e-9,
-                    "{method:?} k̄ {stiffness_1} frame {f}: the descriptions differ by {gap:.2e} h"
+                    "{label}: the descriptions differ by {gap:.2e} h"
                 );
+                worst = worst.max(gap);
+                folds += 1;
             }
+            println!("{method:?} k̄ {stiffness_1}: {folds} folds, largest gap {worst:.1e} h");
+            assert!(folds >= 20, "{method:?}: the capsule folds from frame 8 on");
         }
     }
 }
@@ -723,9 +752,9 @@ fn crease_cut_follows_the_silhouette_on_every_rig() {
     }
 }
 
-/// The faces of `W1 ∪ W2` labelled by their rest side (1 where the corners' mean `β` is at
-/// least 0.5, 2 below, 0 outside both regions), and the pairs of them that cross at
-/// `positions` (found by the intersection module, not by the fold).
+/// The pairs of faces that cross at `positions` between the two rest sides of `W1 ∪ W2` (a
+/// face is on W1's side where its corners' mean `β` is at least 0.5, as the fold's detection
+/// labels them), found by the intersection module rather than by the fold; one per pair.
 fn crossing_face_pairs(
     positions: &[Point3<f64>],
     triangles: &[[u32; 3]],
@@ -745,9 +774,7 @@ fn crossing_face_pairs(
         .collect();
     let found = contact_skin::intersect::mesh_mesh::intersect_parts(positions, triangles, &labels)
         .expect("intersections");
-    let mut pairs: Vec<[u32; 2]> = found.segments.iter().map(|s| s.faces).collect();
-    pairs.dedup();
-    pairs
+    found.segments.iter().map(|s| s.faces).collect()
 }
 
 /// Per face of `W1 ∪ W2`, the side of the cut `on_w1` that holds at least two of its corners

@@ -96,8 +96,8 @@ pub struct Args {
     /// Also measure every frame against its skinned input (MEASURING.md): penetrating
     /// vertices before and after, largest depth, volume error, inverted and turned faces,
     /// non-finite values, and the run's temporal second-difference ratio (the output's largest
-    /// second difference over the input's: it grows with `--frames` where a vertex's motion
-    /// kinks, so compare runs at one frame count); printed and in the JSON summary
+    /// second difference over the input's: where the output pops it grows with the square of
+    /// `--frames`, so compare runs at one frame count); printed and in the JSON summary
     /// (`metrics`). Keeps every frame's welded positions, input and output, in memory (48
     /// bytes per vertex per frame).
     #[arg(long)]

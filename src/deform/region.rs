@@ -339,7 +339,8 @@ pub fn shape_region(
 }
 
 /// Lines 32-37: the geodesic distance `φ` from the zones' boundary (heat method, Sec. 5.1)
-/// normalized by the effective extent into `u ∈ [0, 1]` (region-local).
+/// normalized by the effective extent into `u ∈ [0, 1]` (region-local; the deformable region
+/// `D_l` of line 37 is where `u < 1`).
 fn parametrization(
     wr: &WorkingRegion,
     frame: &RegionFrame,
@@ -363,7 +364,7 @@ fn parametrization(
 }
 
 /// Lines 44-48: the amplitude `a` and slope `s` fields, harmonic from the zones' boundary
-/// points (Sec. 5.2 "Parameter diffusions"), the amplitude then faded where the mapping
+/// points (Sec. 5.3 "Parameter diffusions"), the amplitude then faded where the mapping
 /// field `d̄` fades ([`fade_with_the_direction`]).
 fn guiding_fields(
     problem: &mut CutProblem,
