@@ -288,7 +288,7 @@ type PenetrationOf = fn(&[Vec<Point3<f64>>], &[&[[u32; 3]]], f64) -> Penetration
 /// What both measurements share: the mean rest edge length `h`, the welded inputs, the
 /// penetration of every input (by `measure`), the deepest input frame and the worst volume
 /// change of the output against its input.
-struct Measured<'a> {
+struct Baseline<'a> {
     tris: Vec<&'a [[u32; 3]]>,
     h: f64,
     inputs: Vec<Vec<Vec<Point3<f64>>>>,
@@ -297,7 +297,7 @@ struct Measured<'a> {
     worst_volume_error: f64,
 }
 
-impl<'a> Measured<'a> {
+impl<'a> Baseline<'a> {
     fn new(
         rig: &Rig,
         pre: &'a Precomputed,
@@ -328,14 +328,14 @@ impl<'a> Measured<'a> {
 
 /// Frames in contact, penetration at the deepest input frame, volume error and timings.
 fn measure(rig: &Rig, pre: &Precomputed, timed: &[(ContactFrame, f64)]) -> ContactResult {
-    let Measured {
+    let Baseline {
         tris,
         h,
         before,
         deepest,
         worst_volume_error,
         ..
-    } = Measured::new(rig, pre, timed, penetration);
+    } = Baseline::new(rig, pre, timed, penetration);
     ContactResult {
         animation: String::new(),
         frames: timed.len(),
@@ -426,14 +426,14 @@ fn run_self_contact(
         &posed,
         &format!("demo, {method} + self-contact"),
     )?;
-    let Measured {
+    let Baseline {
         tris,
         h,
         inputs,
         before,
         deepest,
         worst_volume_error,
-    } = Measured::new(rig, &pre, &timed, self_penetration);
+    } = Baseline::new(rig, &pre, &timed, self_penetration);
     let (after, turned) = match (timed.get(deepest), inputs.get(deepest)) {
         (Some((f, _)), Some(input)) => (
             self_penetration(&f.positions, &tris, h),

@@ -105,37 +105,6 @@ pub struct FrameMetrics {
     pub non_finite: usize,
 }
 
-/// Measures one frame (`input`/`output`: welded positions per body, `skinned`: the skinning's
-/// welded normals).
-pub fn frame_metrics(
-    pre: &Precomputed,
-    h: f64,
-    frame: usize,
-    input: &[Vec<Point3<f64>>],
-    skinned: &[Vec<Vector3<f64>>],
-    output: &[Vec<Point3<f64>>],
-) -> FrameMetrics {
-    let tris = triangles(pre);
-    let before = penetration(input, &tris, h);
-    // A frame the passes left alone (no contact, or `--no-contact`) is its input: measured once.
-    let (after, turned) = if input == output {
-        (before.clone(), metrics::TurnedFaces::default())
-    } else {
-        let turned = turned_faces(&tris, input, skinned, output, h);
-        (penetration(output, &tris, h), turned)
-    };
-    FrameMetrics {
-        frame,
-        penetrating_before: before.vertices,
-        penetrating_after: after.vertices,
-        max_depth_after_h: after.max_depth / h,
-        volume_error: volume_error(&tris, input, output),
-        inverted_faces: turned.against_input,
-        turned_faces: turned.turned,
-        non_finite: output.iter().map(|p| metrics::non_finite(p)).sum(),
-    }
-}
-
 /// One frame measured, with its welded input and output (the bodies one after another), which
 /// the run's [`temporal`] measure needs.
 pub struct Measured {
@@ -148,7 +117,8 @@ pub struct Measured {
 }
 
 impl Measured {
-    /// Measures frame `frame` ([`frame_metrics`]) and keeps its positions.
+    /// Measures frame `frame` (`input`/`output`: welded positions per body, `skinned`: the
+    /// skinning's welded normals) and keeps its positions.
     pub fn new(
         pre: &Precomputed,
         h: f64,
@@ -157,8 +127,28 @@ impl Measured {
         skinned: &[Vec<Vector3<f64>>],
         output: &[Vec<Point3<f64>>],
     ) -> Self {
+        let tris = triangles(pre);
+        let before = penetration(input, &tris, h);
+        // A frame the passes left alone (no contact, or `--no-contact`) is its input: measured
+        // once.
+        let (after, turned) = if input == output {
+            (before.clone(), metrics::TurnedFaces::default())
+        } else {
+            let turned = turned_faces(&tris, input, skinned, output, h);
+            (penetration(output, &tris, h), turned)
+        };
+        let metrics = FrameMetrics {
+            frame,
+            penetrating_before: before.vertices,
+            penetrating_after: after.vertices,
+            max_depth_after_h: after.max_depth / h,
+            volume_error: volume_error(&tris, input, output),
+            inverted_faces: turned.against_input,
+            turned_faces: turned.turned,
+            non_finite: output.iter().map(|p| metrics::non_finite(p)).sum(),
+        };
         Self {
-            metrics: frame_metrics(pre, h, frame, input, skinned, output),
+            metrics,
             input: input.concat(),
             output: output.concat(),
         }

@@ -579,6 +579,21 @@ fn compute(job: &Job, i: usize, t: f64) -> Result<Computed, String> {
     Ok((frame, stats, staged))
 }
 
+/// `--metrics`: frame `i` measured against its skinned `input` (`output`: the passes' welded
+/// positions; `None`: the input itself, no pass ran).
+fn measured(
+    job: &Job,
+    i: usize,
+    input: &Frame,
+    output: Option<&[Vec<nalgebra::Point3<f64>>]>,
+) -> Option<Measured> {
+    let h = job.h?;
+    let welded = input.welded(job.pre);
+    let normals = input.welded_normals(job.pre);
+    let output = output.unwrap_or(&welded);
+    Some(Measured::new(job.pre, h, i, &welded, &normals, output))
+}
+
 /// [`compute`] before the check that its positions can be written: the frame, its
 /// statistics and its diagnostics' bytes (if asked).
 fn compute_unchecked(
@@ -600,11 +615,7 @@ fn compute_unchecked(
             folds_without_direction: 0,
             folds_unbalanced: 0,
             vertices_guarded: 0,
-            measured: job.h.map(|h| {
-                let input = frame.welded(job.pre);
-                let normals = frame.welded_normals(job.pre);
-                Measured::new(job.pre, h, i, &input, &normals, &input)
-            }),
+            measured: measured(job, i, &frame, None),
         };
         return Ok((frame, stats, None));
     };
@@ -629,11 +640,7 @@ fn compute_unchecked(
         folds_without_direction: so.map_or(0, |s| s.no_direction),
         folds_unbalanced: so.map_or(0, |s| s.unbalanced),
         vertices_guarded: so.map_or(0, |s| s.guarded),
-        measured: job.h.map(|h| {
-            let input = cf.input.welded(job.pre);
-            let normals = cf.input.welded_normals(job.pre);
-            Measured::new(job.pre, h, i, &input, &normals, &cf.positions)
-        }),
+        measured: measured(job, i, &cf.input, Some(&cf.positions)),
     };
     Ok((cf.frame, stats, diagnostics))
 }

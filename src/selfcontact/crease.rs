@@ -89,7 +89,15 @@ pub fn crease_cut(input: &CreaseInput, params: &CreaseParams) -> Result<Crease, 
     }
     let edges = region_edges(input);
     let mut g = CutGraph::new(verts.len());
-    let borders = add_edges(&mut g, input, &edges, &shared, &node)?;
+    add_edges(&mut g, input, &edges, &shared, &node)?;
+    let computed;
+    let borders = match precomputed(input) {
+        Some(topo) => topo.borders.as_slice(),
+        None => {
+            computed = border_flags(edges.iter().map(|e| e.ends), input.w1, input.w2);
+            computed.as_slice()
+        }
+    };
     let terms = VertexTerms {
         area: vertex_areas(input),
         near_intersection: ring(input, &edges, input.intersecting),
@@ -113,16 +121,14 @@ pub fn crease_cut(input: &CreaseInput, params: &CreaseParams) -> Result<Crease, 
     })
 }
 
-/// Adds the edges inside `R` with capacity `ℓ*_ij (0.1 + min |n·d̂|)` both ways; returns, per
-/// mesh vertex, whether it is a vertex of `R` adjacent to `W1 \ R` and to `W2 \ R`.
+/// Adds the edges inside `R` with capacity `ℓ*_ij (0.1 + min |n·d̂|)` both ways.
 fn add_edges(
     g: &mut CutGraph,
     input: &CreaseInput,
     edges: &[Edge],
     shared: &[bool],
     node: &[u32],
-) -> Result<Vec<(bool, bool)>, MinCutError> {
-    let mut borders = vec![(false, false); shared.len()];
+) -> Result<(), MinCutError> {
     for e in edges {
         let [a, b] = e.ends;
         if shared[a as usize] && shared[b as usize] {
@@ -134,14 +140,28 @@ fn add_edges(
                 cap,
             )?;
         }
+    }
+    Ok(())
+}
+
+/// Per mesh vertex: whether it is a vertex of `R = W1 ∩ W2` adjacent over `edges` to
+/// `W1 \ R`, and to `W2 \ R` (the terminals of the cut, and the borders where `σ` is ±1).
+fn border_flags(
+    edges: impl IntoIterator<Item = [u32; 2]>,
+    w1: &[bool],
+    w2: &[bool],
+) -> Vec<(bool, bool)> {
+    let shared = |v: u32| w1[v as usize] && w2[v as usize];
+    let mut borders = vec![(false, false); w1.len()];
+    for [a, b] in edges {
         for (s, o) in [(a, b), (b, a)] {
-            if shared[s as usize] && !shared[o as usize] {
-                borders[s as usize].0 |= input.w1[o as usize];
-                borders[s as usize].1 |= input.w2[o as usize];
+            if shared(s) && !shared(o) {
+                borders[s as usize].0 |= w1[o as usize];
+                borders[s as usize].1 |= w2[o as usize];
             }
         }
     }
-    Ok(borders)
+    borders
 }
 
 /// Barycentric vertex areas over the faces of `W1 ∪ W2`.
@@ -159,15 +179,15 @@ fn vertex_areas(input: &CreaseInput) -> Vec<f64> {
 }
 
 /// What the terminal capacities of a vertex of `R` depend on.
-struct VertexTerms {
+struct VertexTerms<'a> {
     area: Vec<f64>,
     near_intersection: Vec<bool>,
     mean_edge: f64,
-    /// Per mesh vertex: adjacent to `W1 \ R`, to `W2 \ R`.
-    borders: Vec<(bool, bool)>,
+    /// Per mesh vertex: adjacent to `W1 \ R`, to `W2 \ R` ([`border_flags`]).
+    borders: &'a [(bool, bool)],
 }
 
-impl VertexTerms {
+impl VertexTerms<'_> {
     /// `(source, sink)` capacities of vertex `v` of `R`: infinite toward the only side it
     /// borders; else the intersection term near the intersection, the `β` term elsewhere.
     fn of(&self, input: &CreaseInput, params: &CreaseParams, v: usize) -> (f64, f64) {
@@ -195,17 +215,21 @@ struct Edge {
     dual: f64,
 }
 
-/// The edges of the faces of `W1 ∪ W2` (topology only: precomputed once per joint pair).
+/// The edges of the faces of `W1 ∪ W2` and the borders of `R` (topology only: precomputed
+/// once per joint pair).
 #[derive(Clone, Debug, Default)]
 pub struct CreaseTopology {
     edges: Vec<[u32; 2]>,
     /// Per face of the input list: its three edges, in corner order `(k, k + 1)`.
     face_edges: Vec<[u32; 3]>,
+    /// Per mesh vertex: a vertex of `R` next to `W1 \ R`, next to `W2 \ R`.
+    borders: Vec<(bool, bool)>,
 }
 
 impl CreaseTopology {
-    /// The edges of `faces` (ids into `triangles`), sorted.
-    pub fn new(triangles: &[[u32; 3]], faces: &[u32]) -> Self {
+    /// The edges of `faces` (ids into `triangles`: the faces of `W1 ∪ W2`), sorted, and the
+    /// borders of `R` over them (`w1`, `w2`: per mesh vertex, in W1, in W2).
+    pub fn new(triangles: &[[u32; 3]], faces: &[u32], w1: &[bool], w2: &[bool]) -> Self {
         let key = |a: u32, b: u32| [a.min(b), a.max(b)];
         let mut edges: Vec<[u32; 2]> = faces
             .iter()
@@ -224,16 +248,31 @@ impl CreaseTopology {
                 std::array::from_fn(|k| id(key(t[k], t[(k + 1) % 3])))
             })
             .collect();
-        Self { edges, face_edges }
+        let borders = border_flags(edges.iter().copied(), w1, w2);
+        Self {
+            edges,
+            face_edges,
+            borders,
+        }
     }
+
+    /// Per mesh vertex: whether it is a vertex of `R` next to `W1 \ R`, and next to `W2 \ R`
+    /// (over the edges of `W1 ∪ W2`).
+    pub fn borders(&self) -> &[(bool, bool)] {
+        &self.borders
+    }
+}
+
+/// The input's precomputed topology when it fits the input (same faces and vertices).
+fn precomputed<'a>(input: &CreaseInput<'a>) -> Option<&'a CreaseTopology> {
+    input.topology.filter(|t| {
+        t.face_edges.len() == input.faces.len() && t.borders.len() == input.positions.len()
+    })
 }
 
 /// Edges of the faces of `W1 ∪ W2`, each with its barycentric dual length.
 fn region_edges(input: &CreaseInput) -> Vec<Edge> {
-    if let Some(topo) = input
-        .topology
-        .filter(|t| t.face_edges.len() == input.faces.len())
-    {
+    if let Some(topo) = precomputed(input) {
         let mut dual = vec![0.0; topo.edges.len()];
         for (&f, fe) in input.faces.iter().zip(&topo.face_edges) {
             let t = input.triangles[f as usize];

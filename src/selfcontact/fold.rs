@@ -181,9 +181,6 @@ pub struct FoldPre {
     closed: bool,
     winding: crate::report::metrics::WindingNumber,
     topology: CreaseTopology,
-    /// Per vertex of `R`: adjacent to `W1 \ R`, adjacent to `W2 \ R` (the borders where `σ`
-    /// is +1 or -1).
-    toward: Vec<(bool, bool)>,
     /// Neighbours of each local vertex of `shared` (local ids).
     shared_adjacency: Vec<Vec<u32>>,
     /// The joint's size: the diagonal of the shared region's bounding box at rest.
@@ -310,8 +307,7 @@ impl FoldPre {
         let closed = crate::mesh::Region::whole(triangles).is_closed();
         let winding =
             crate::report::metrics::WindingNumber::with_beta(rest, triangles, INSIDE_BETA);
-        let topology = CreaseTopology::new(triangles, &faces);
-        let toward = border_sides(triangles, &regions);
+        let topology = CreaseTopology::new(triangles, &faces, &regions.w1, &regions.w2);
         let joint_size = regions.joint_size(rest);
         let shared_adjacency = shared.solver.region.adjacency();
         Ok(Self {
@@ -326,7 +322,6 @@ impl FoldPre {
             closed,
             winding,
             topology,
-            toward,
             shared_adjacency,
         })
     }
@@ -369,23 +364,6 @@ impl FoldPre {
             }),
         )
     }
-}
-
-/// Per vertex of `R`: whether it is adjacent to `W1 \ R` and to `W2 \ R`.
-fn border_sides(triangles: &[[u32; 3]], r: &PairRegions) -> Vec<(bool, bool)> {
-    let mut toward = vec![(false, false); r.w1.len()];
-    for t in triangles {
-        for k in 0..3 {
-            let (a, b) = (t[k] as usize, t[(k + 1) % 3] as usize);
-            for (s, o) in [(a, b), (b, a)] {
-                if r.w1[s] && r.w2[s] {
-                    toward[s].0 |= r.w1[o] && !r.w2[o];
-                    toward[s].1 |= r.w2[o] && !r.w1[o];
-                }
-            }
-        }
-    }
-    toward
 }
 
 /// Face labels from `β` at rest: 1 on W1's side, 2 on W2's, 0 outside both.
@@ -1045,7 +1023,7 @@ fn sigma_boundary(pre: &FoldPre, contact: &Contact) -> (Boundary, Vec<f64>) {
     }
     let mut fixed = Vec::new();
     for (l, &v) in region.vertices.iter().enumerate() {
-        let side = match pre.toward[v as usize] {
+        let side = match pre.topology.borders()[v as usize] {
             (true, false) => 1.0,
             (false, true) => -1.0,
             _ => continue,

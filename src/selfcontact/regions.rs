@@ -136,25 +136,22 @@ pub fn derive_pairs_reporting(
         let skin = skin_of(rig, body)?;
         check_body(body, mesh, skin)?;
         let tree = JointTree::of_body(rig, body, skin);
+        let src = PairSource::new(rig, b, mesh, skin, &tree)?;
         for c in 0..skin.joints.len() {
             let Some(p) = tree.parent[c] else {
                 continue;
             };
-            let src = PairSource::of(rig, b, mesh, skin, &tree);
             match build_pair(&src, [p, c], options) {
                 Ok(Some(pair)) => out.push(pair),
                 Ok(None) => {}
                 // A pair whose shared region cannot carry a partition of unity (one-sided or
                 // unreachable border: e.g. a joint whose weights never overlap its parent's
                 // over a band) is skipped, not fatal: the rest of the rig still works.
-                Err(e @ SelfContactError::DegenerateSharedRegion { .. })
-                | Err(e @ SelfContactError::UnreachedSharedRegion { .. }) => {
-                    skipped.push(if options.grow_rings > 0 {
-                        format!("{e} (with {} grown rings, and fewer)", options.grow_rings)
-                    } else {
-                        e.to_string()
-                    })
-                }
+                Err(e) if no_partition(&e) => skipped.push(if options.grow_rings > 0 {
+                    format!("{e} (with {} grown rings, and fewer)", options.grow_rings)
+                } else {
+                    e.to_string()
+                }),
                 Err(e) => return Err(e),
             }
         }
@@ -204,7 +201,7 @@ pub fn pairs_for_joints<S: AsRef<str>>(
             holders += 1;
             check_body(body, mesh, skin)?;
             let tree = JointTree::of_body(rig, body, skin);
-            let src = PairSource::of(rig, b, mesh, skin, &tree);
+            let src = PairSource::new(rig, b, mesh, skin, &tree)?;
             if let Some(pair) = build_pair(&src, [p, c], options)? {
                 out.push(pair);
             }
@@ -303,31 +300,36 @@ pub(crate) fn node_name(rig: &Rig, node: usize) -> String {
         .unwrap_or_else(|| format!("node{node}"))
 }
 
-/// What a pair is derived from: a body of the rig, its welded mesh, its skin and joint tree.
-#[derive(Clone, Copy)]
+/// What the pairs of one body are derived from: the rig, the body's welded mesh, skin and
+/// joint tree, and (computed once for all its pairs) the mesh's vertex adjacency and welded
+/// rest positions.
 struct PairSource<'a> {
     rig: &'a Rig,
     body: usize,
     mesh: &'a WeldedMesh,
     skin: &'a Skin,
     tree: &'a JointTree,
+    adjacency: Vec<Vec<u32>>,
+    rest: Vec<Point3<f64>>,
 }
 
 impl<'a> PairSource<'a> {
-    fn of(
+    fn new(
         rig: &'a Rig,
         body: usize,
         mesh: &'a WeldedMesh,
         skin: &'a Skin,
         tree: &'a JointTree,
-    ) -> Self {
-        Self {
+    ) -> Result<Self, SelfContactError> {
+        Ok(Self {
+            adjacency: vertex_adjacency(mesh.vertex_count(), &mesh.triangles)?,
+            rest: welded_rest(&rig.bodies[body], mesh)?,
             rig,
             body,
             mesh,
             skin,
             tree,
-        }
+        })
     }
 }
 
@@ -345,7 +347,7 @@ fn build_pair(
     [p, c]: [usize; 2],
     options: &RegionOptions,
 ) -> Result<Option<PairRegions>, SelfContactError> {
-    let seeded = seed_pair(src, [p, c], options.threshold)?;
+    let seeded = seed_pair(src, [p, c], options.threshold);
     let configured = match grown_pair(src, &seeded, options) {
         Err(e) if no_partition(&e) => e,
         other => return other,
@@ -383,27 +385,21 @@ fn no_partition(e: &SelfContactError) -> bool {
     )
 }
 
-/// What every growth of one pair starts from: its joints, the weight seeds of W1 and W2, the
-/// welded mesh's adjacency and rest positions.
+/// What every growth of one pair starts from: its joints and the weight seeds of W1 and W2.
 struct SeededPair {
     pair: JointPair,
     seeds: [Vec<bool>; 2],
-    adjacency: Vec<Vec<u32>>,
-    rest: Vec<Point3<f64>>,
 }
 
 /// The pair's joints and seeds (skin indices `p`, `c`) at `threshold`.
-fn seed_pair(
-    src: &PairSource,
-    [p, c]: [usize; 2],
-    threshold: f64,
-) -> Result<SeededPair, SelfContactError> {
+fn seed_pair(src: &PairSource, [p, c]: [usize; 2], threshold: f64) -> SeededPair {
     let PairSource {
         rig,
         body: b,
         mesh,
         skin,
         tree,
+        ..
     } = *src;
     let body = &rig.bodies[b];
     let (parent, child) = (skin.joints[p], skin.joints[c]);
@@ -421,12 +417,10 @@ fn seed_pair(
     };
     let below = tree.below(rig, skin, c);
     let (seed1, seed2) = weight_seeds(body, mesh, p, &below, threshold);
-    Ok(SeededPair {
+    SeededPair {
         pair,
         seeds: [seed1, seed2],
-        adjacency: vertex_adjacency(mesh.vertex_count(), &mesh.triangles)?,
-        rest: welded_rest(body, mesh)?,
-    })
+    }
 }
 
 /// The regions of a seeded pair grown by exactly `options.grow_rings` rings, or `None` when
@@ -439,7 +433,7 @@ fn grown_pair(
     let mesh = src.mesh;
     let n = mesh.vertex_count();
     let [(w1_faces, w1), (w2_faces, w2)] = seeded.seeds.each_ref().map(|seed| {
-        let grown = grow(seed.clone(), &seeded.adjacency, options.grow_rings);
+        let grown = grow(seed.clone(), &src.adjacency, options.grow_rings);
         as_faces(&mesh.triangles, &grown)
     });
     let shared: Vec<u32> = (0..n)
@@ -450,7 +444,7 @@ fn grown_pair(
         return Ok(None);
     }
     let (beta, partition) =
-        partition_with_adjacency(&seeded.rest, &mesh.triangles, &seeded.adjacency, &w1, &w2)
+        partition_with_adjacency(&src.rest, &mesh.triangles, &src.adjacency, &w1, &w2)
             .map_err(|e| e.for_pair(&seeded.pair.name))?;
     let mut regions = PairRegions {
         pair: seeded.pair.clone(),
