@@ -316,6 +316,15 @@ mod tests {
             }
             let worst = r.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
             assert!(worst < 1e-10, "{n} unknowns: residual {worst:e}");
+            // Indefinite and non-finite matrices are typed errors on both paths.
+            let mut bad = slots.clone();
+            bad[n / 2] = -50.0;
+            assert!(matches!(
+                pattern.factor(&bad, "test"),
+                Err(SolveError::NotPositiveDefinite { .. })
+            ));
+            bad[n / 2] = f64::NAN;
+            assert!(pattern.factor(&bad, "test").is_err(), "{n} unknowns: NaN");
         }
     }
 
