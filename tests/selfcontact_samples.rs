@@ -389,9 +389,10 @@ fn curled_hand(rig: &rig::Rig, fingers: &[&str], angles: [f64; 3]) -> rig::Pose 
 /// 6e-16, largest displacement 0.37 edge lengths. The 4 lie less than 0.1 h inside (inside the
 /// body twice when nudged inward by `MEASURING.md`'s 0.05 h, once at 0.1 h; the metric's
 /// "depth", 1-2 h, is its distance to the nearest facing face beyond two rings): three at the
-/// last joints, whose folds the pass detects but leaves alone (their one or two inside
-/// vertices lie on the other part's faces, so no ray finds a depth and no zone forms), one
-/// where the ring finger's tip meets its first phalanx (no joint pair spans the two).
+/// last joints, whose folds the pass detects but leaves alone (one or two vertices of one part
+/// lie 0.02-0.06 h inside the other along the mapping direction and none of the other part
+/// does: no ray finds a depth, no zone forms), one where the ring finger's tip meets its first
+/// phalanx (no joint pair spans the two).
 #[test]
 fn a_tracked_hand_curls_into_contact() {
     let rel = "WebXRGenericHand/left.glb";
