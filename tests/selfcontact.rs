@@ -5,12 +5,13 @@ mod scenes;
 
 use contact_skin::mesh::operators::{vertex_normals, NormalWeighting};
 use contact_skin::report::metrics;
+use contact_skin::rig;
 use contact_skin::selfcontact::fold::{FoldInput, FoldParams};
-use contact_skin::selfcontact::pass::SelfContactPass;
+use contact_skin::selfcontact::pass::{SelfContactPass, SelfPassOutput};
 use contact_skin::selfcontact::turn_guard::TurnReference;
 use contact_skin::selfcontact::{DirectionSource, RegionOptions};
 use contact_skin::skinning::Method;
-use nalgebra::{Point3, Vector3};
+use nalgebra::{Matrix4, Point3, Vector3, Vector4};
 use scenes::{load, load_with, welded_positions, Loaded};
 
 fn self_pass(l: &Loaded, directions: &[(String, DirectionSource)]) -> SelfContactPass {
@@ -178,7 +179,7 @@ fn bending_capsule_fold() {
 
 /// The same bend with Center-of-Rotation and dual-quaternion skinning as input: resolved with
 /// the volume kept and no face turned (the turn guard), but not yet at the issue's targets (see
-/// the issue note): up to 5 penetrating vertices (CoR and DQS) at 120-150°, and the
+/// the issue note): up to 6 penetrating vertices (CoR; DQS 4) at 120-150°, and the
 /// temporal ratio reaches 22 (the input folds over along `d̂` at the inner elbow, and a vertex
 /// the crease cut moves across jumps by about 2 h). Without the turn guard 15 and 9 faces
 /// turned at the crease's bottom (see [`the_turn_guard_keeps_faces_from_turning`]; before the
@@ -195,7 +196,7 @@ fn volume_preserving_input(method: Method) {
         assert_eq!(x.nan, 0, "{method:?} frame {f}: NaN");
         assert!(x.volume_error < 1e-4, "{method:?} frame {f}: volume");
         assert!(
-            x.after <= 5,
+            x.after <= 6,
             "{method:?} frame {f}: penetration {} -> {}",
             x.before,
             x.after
@@ -206,8 +207,8 @@ fn volume_preserving_input(method: Method) {
 
 /// The turn guard on the bend with CoR input, frame by frame from 90° to 150°: without it
 /// faces turn over at the crease's bottom (4 to 15 per frame, measured), with it none, with
-/// 12 to 78 vertices scaled back and at most 5 penetrating vertices per frame either way
-/// (measured per frame: -3 to +3, frame 27 2 → 5, frame 30 3 → 0). The LBS bend and the
+/// 16 to 81 vertices scaled back and at most 6 penetrating vertices per frame either way
+/// (measured per frame: -3 to +4, frame 28 2 → 6, frame 29 3 → 0). The LBS bend and the
 /// finger never trigger it (their outputs are the same to the bit with and without).
 #[test]
 fn the_turn_guard_keeps_faces_from_turning() {
@@ -239,7 +240,7 @@ fn the_turn_guard_keeps_faces_from_turning() {
         println!(
             "frame {f}: turned {t_off} -> {t_on}, penetrating {p_off} -> {p_on}, {g_on} scaled"
         );
-        assert!(p_on <= 5, "frame {f}: penetration {p_off} -> {p_on}");
+        assert!(p_on <= 6, "frame {f}: penetration {p_off} -> {p_on}");
         assert_eq!(g_off, 0, "the guard off scales nothing");
         turned_free = turned_free.max(t_off);
         guarded_vertices += g_on;
@@ -284,13 +285,15 @@ fn native_frames(name: &str) -> usize {
 /// The LBS folds sampled at their animations' own rate (30 per second: 76 frames of the
 /// capsule's bend, 91 of the finger's flex), where the 31-frame tests above are 2.5-3 times
 /// coarser. The capsule's output pops: its largest second difference stays at about 0.2 h
-/// however finely it is sampled (0.24 h at frame 53 of 76, vertices 1991 and 1351, where W2's
-/// zone takes 12 vertices at once as the crease cut flips between two rings), while the
-/// input's shrinks with the square of the step, so the ratio grows with the square of the
-/// frame count: 1.78 at 31 frames, 5.74 at 76, above the issue's bound of 3. The finger: 1.75,
-/// and one penetrating vertex at frames 85 and 89 (0 at 31 frames). The bounds below are
-/// those measurements with a margin, not the issue's targets: this test guards the state the
-/// issue note reports.
+/// however finely it is sampled (0.23 h at frame 53 of 76, vertex 1948, where the zones grow
+/// by 10 and 12 vertices at once: Eq. 4's threshold drops by 0.44 h as 22 zero-depth samples
+/// of vertices on the crease cut, whose rays land on their own faces of the other part, enter
+/// the mapping region through the propagation from the walls), while the input's shrinks with the square of the step, so the ratio
+/// grows with the square of the frame count: 1.69 at 31 frames, 5.39 at 76, above the issue's
+/// bound of 3. The finger: 1.84, no penetrating vertex (one at frames 85 and 89 before the
+/// walls' crossings at contour points were made independent of round-off). The bounds below
+/// are those measurements with a margin, not the issue's targets: this test guards the state
+/// the issue note reports.
 #[test]
 fn lbs_folds_at_the_animations_frame_rate() {
     let frames = native_frames("bending_capsule");
@@ -300,7 +303,7 @@ fn lbs_folds_at_the_animations_frame_rate() {
     let frames = native_frames("finger");
     assert_eq!(frames, 91);
     let finger = run("finger", frames, &[]);
-    check("finger", &finger, 1, 0, 2.0);
+    check("finger", &finger, 0, 0, 2.2);
 }
 
 /// The mouth closing, with the paper's hand-set vertical direction (Fig. 1d): the upper lip's
@@ -614,6 +617,104 @@ fn a_fold_is_the_same_with_its_regions_exchanged() {
             println!("{method:?} k̄ {stiffness_1}: {folds} folds, largest gap {worst:.1e} h");
             assert!(folds >= 20, "{method:?}: the capsule folds from frame 8 on");
         }
+    }
+}
+
+/// The mirror image of `rig` through the plane `x = 0`: rest transforms, inverse bind matrices,
+/// positions and normals reflected, every triangle's winding reversed (normals stay outward).
+fn mirrored(rig: &rig::Rig) -> rig::Rig {
+    let s = mirror_matrix();
+    let mut m = rig.clone();
+    for node in &mut m.nodes {
+        node.rest = rig::LocalTransform::Matrix(s * node.rest.matrix() * s);
+    }
+    for skin in &mut m.skins {
+        for b in &mut skin.inverse_bind {
+            *b = s * *b * s;
+        }
+    }
+    for body in &mut m.bodies {
+        body.positions.iter_mut().for_each(|p| p.x = -p.x);
+        body.normals.iter_mut().for_each(|n| n.x = -n.x);
+        body.triangles.iter_mut().for_each(|t| t.swap(1, 2));
+    }
+    m
+}
+
+fn mirror_matrix() -> Matrix4<f64> {
+    Matrix4::from_diagonal(&Vector4::new(-1.0, 1.0, 1.0, 1.0))
+}
+
+fn mirror_points(bodies: &[Vec<Point3<f64>>]) -> Vec<Vec<Point3<f64>>> {
+    bodies
+        .iter()
+        .map(|b| b.iter().map(|p| Point3::new(-p.x, p.y, p.z)).collect())
+        .collect()
+}
+
+/// A fold and its mirror image give mirrored surfaces: the rig reflected through a plane (its
+/// triangles' winding reversed so that they still face out) posed by the reflected skeleton.
+/// Nothing in the pass may depend on the handedness of the space: the skeleton's direction,
+/// the crease cut, the truncated parts' contours and their inside tags (an orientation), the
+/// zones, `σ`, the deformation, the volume solve and the turn guard. The finger (three joints),
+/// the mouth and the bending capsule, LBS, every frame of 31, one sweep: the same folds in
+/// every frame, the same positions reflected up to what the zones' boundary points are computed
+/// to (a bisection of the edge to `2^-16`, which a zone threshold can turn into one vertex more
+/// or less). Measured: capsule 1.7e-4 h, mouth 8.9e-5 h, finger 1.5e-2 h (3 of its 31
+/// frames have a zone of another size); before the walls' crossings at contour points were made
+/// independent of round-off, 5.6e-3, 8.9e-5 and 5.8e-2 h. A sign error anywhere would cost
+/// edge lengths.
+#[test]
+fn a_fold_and_its_mirror_image_agree() {
+    for name in ["finger", "mouth", "bending_capsule"] {
+        let l = load(name, 31);
+        let pass = self_pass(&l, &[]).with_passes(1);
+        let m_rig = mirrored(&l.rig);
+        let m_pre = contact_skin::frames::Precomputed::new(&m_rig, Method::Lbs);
+        assert_eq!(
+            m_pre.welded[0].to_welded, l.pre.welded[0].to_welded,
+            "{name}: welds"
+        );
+        let rest = welded_positions(&l.rig, &l.pre, 0.0, None);
+        let m_pass = SelfContactPass::new(
+            &m_rig,
+            &m_pre.welded,
+            &mirror_points(&rest),
+            &RegionOptions::default(),
+            FoldParams::default(),
+            &[],
+        )
+        .expect("mirrored pass precomputes")
+        .with_passes(1);
+        let s = mirror_matrix();
+        let (mut folds, mut worst) = (0, 0.0f64);
+        for f in 0..l.times.len() {
+            let input = l.frame(f);
+            let pose = l.rig.pose_at(Some(0), l.times[f]);
+            let m_pose = rig::Pose {
+                world: pose.world.iter().map(|w| s * w * s).collect(),
+            };
+            let mut out = input.clone();
+            let res = pass.run(&l.rig, &pose, &mut out).expect("pass runs");
+            let mut m_out = mirror_points(&input);
+            let m_res = m_pass
+                .run(&m_rig, &m_pose, &mut m_out)
+                .expect("mirror runs");
+            let names = |r: &SelfPassOutput| -> Vec<String> {
+                r.folds.iter().map(|fold| fold.name.clone()).collect()
+            };
+            assert_eq!(names(&res), names(&m_res), "{name} frame {f}: folds");
+            folds += res.folds.len();
+            for (p, q) in out[0].iter().zip(&mirror_points(&m_out)[0]) {
+                worst = worst.max((p - q).norm() / l.h_rest);
+            }
+        }
+        println!("{name}: {folds} folds, mirror images differ by {worst:.1e} h");
+        assert!(folds > 0, "{name}: folds");
+        assert!(
+            worst < 0.05,
+            "{name}: mirror images differ by {worst:.1e} h"
+        );
     }
 }
 

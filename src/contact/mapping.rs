@@ -281,7 +281,7 @@ impl Walls {
                 };
                 // Only front-facing edges: g(t) = n(t)·m̂ ≤ 0 at the crossing.
                 let g = |v: u32| own.normals[v as usize].dot(&self.normal_axis());
-                if g(a) * (1.0 - t) + g(b) * t > 0.0 {
+                if g(a) * (1.0 - t) + g(b) * t > PARAMETER_TOLERANCE {
                     continue;
                 }
                 let dir = seg.ends[1] - seg.ends[0];
@@ -301,11 +301,12 @@ impl Walls {
                         target_normal: normal,
                     },
                 });
-                region.stats.wall_crossings += 1;
             }
         }
         for w in region.walls.values_mut() {
             w.sort_by(|x, y| x.t.total_cmp(&y.t));
+            w.dedup_by(|later, kept| later.t - kept.t <= PARAMETER_TOLERANCE);
+            region.stats.wall_crossings += w.len();
         }
         tags
     }
@@ -383,7 +384,19 @@ fn cross2(a: &Vector2<f64>, b: &Vector2<f64>) -> f64 {
     a.x * b.y - a.y * b.x
 }
 
-/// Proper crossing of segments `p0 p1` and `q0 q1`: parameters `(t, s)` along each.
+/// How far past its ends a segment still counts as crossed, as a fraction of its length, and
+/// how close to 0 a crossing's `n·m̂` still counts as front-facing. A contour point of the other
+/// side may lie on an edge of this side (in a self-contact the two truncated parts share the
+/// cut's vertices, and near the cut the contour runs along shared edges), and an edge through
+/// a contour point crosses both segments that meet there, at their ends: without a tolerance,
+/// round-off decided whether that crossing counted once, twice or not at all, and its front
+/// test (`n·m̂` is 0 on a contour), so the mirror image of a fold had other walls (the crossing
+/// at a segment's start is at its end once the winding is reversed). With it, both segments
+/// count and the crossings of one edge closer than this are merged.
+const PARAMETER_TOLERANCE: f64 = 1e-9;
+
+/// Crossing of segments `p0 p1` and `q0 q1`, ends included up to [`PARAMETER_TOLERANCE`]:
+/// parameters `(t, s)` along each, clamped to `[0, 1]`.
 fn segment_crossing(
     p0: &Vector2<f64>,
     p1: &Vector2<f64>,
@@ -398,5 +411,32 @@ fn segment_crossing(
     let qp = q0 - p0;
     let t = cross2(&qp, &s) / denom;
     let u = cross2(&qp, &r) / denom;
-    ((0.0..=1.0).contains(&t) && (0.0..=1.0).contains(&u)).then_some((t, u))
+    let range = -PARAMETER_TOLERANCE..=1.0 + PARAMETER_TOLERANCE;
+    (range.contains(&t) && range.contains(&u)).then_some((t.clamp(0.0, 1.0), u.clamp(0.0, 1.0)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An edge through the point where two contour segments meet crosses both, whichever way
+    /// the segments run and on whichever side of the point round-off puts it; a miss by more
+    /// than the tolerance stays a miss.
+    #[test]
+    fn a_crossing_at_a_contour_point_counts_for_both_segments() {
+        let v = Vector2::new;
+        let (a, b, c) = (v(0.0, 0.0), v(1.0, 0.0), v(2.0, 1.0));
+        for x in [1.0, 1.0 + 1e-13, 1.0 - 1e-13] {
+            let (p0, p1) = (v(x, -1.0), v(x, 1.0));
+            for (q0, q1, end) in [(a, b, 1.0), (b, a, 0.0), (b, c, 0.0), (c, b, 1.0)] {
+                let (t, s) = segment_crossing(&p0, &p1, &q0, &q1).expect("crossing");
+                assert!(
+                    (t - 0.5).abs() < 1e-9 && (s - end).abs() < 1e-9,
+                    "{x}: {t} {s}"
+                );
+            }
+        }
+        let (p0, p1) = (v(1.0 + 1e-6, -1.0), v(1.0 + 1e-6, 1.0));
+        assert!(segment_crossing(&p0, &p1, &a, &b).is_none());
+    }
 }
