@@ -287,7 +287,7 @@ fn intersections_without_a_contact_zone_are_not_folds() {
     }
 }
 
-/// CesiumMan's walk over 61 frames, second-difference ratio against the skinned input: 7.35
+/// CesiumMan's walk over 61 frames, second-difference ratio against the skinned input: 7.31
 /// measured (frame 15, vertex 1312 at the hips), above the bound of 3, which is open:
 /// the hips-spine fold starts with a one-vertex zone whose ray leaves at 79° to its normal,
 /// just inside the paper's 80° safeguard, and lands 4.5 h away, so the zone's birth moves it
@@ -386,7 +386,7 @@ fn curled_hand(rig: &rig::Rig, fingers: &[&str], angles: [f64; 3]) -> rig::Pose 
 /// hierarchy gives none), and with its four fingers curled by 110° at the middle and 90° at
 /// the last joint (the phalanges pressed into one another, the tips short of the palm) the pass
 /// resolves the folds. Measured: 29 → 4 penetrating vertices, no face turned, volume error
-/// 6e-16, largest displacement 0.37 edge lengths. The 4 lie less than 0.1 h inside (inside the
+/// 3e-16, largest displacement 0.37 edge lengths. The 4 lie less than 0.1 h inside (inside the
 /// body twice when nudged inward by `MEASURING.md`'s 0.05 h, once at 0.1 h; the metric's
 /// "depth", 1-2 h, is its distance to the nearest facing face beyond two rings): three at the
 /// last joints, whose folds the pass detects but leaves alone (one or two vertices of one part
