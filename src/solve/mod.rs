@@ -56,7 +56,7 @@ pub enum SolveError {
 /// regions' `σ` matrices (280-1080 unknowns, 8-18 per nonzero, one solve each) stay
 /// simplicial, where the supernodal factorization is 1.1-1.9 times slower. (The planar grids
 /// of `cargo bench --bench solve` fill less: its 2k-vertex grid stays simplicial.)
-const SUPERNODAL_THRESHOLD: SupernodalThreshold = SupernodalThreshold(0.5);
+pub const SUPERNODAL_THRESHOLD: SupernodalThreshold = SupernodalThreshold(0.5);
 
 /// The sparsity pattern of a symmetric matrix on `n` unknowns with the given couplings, and its
 /// symbolic Cholesky factorization.
