@@ -68,7 +68,7 @@ pub struct MappingStats {
     pub projected: usize,
     /// Contour segments of the other side extruded.
     pub contour_segments: usize,
-    /// Edge-quad crossings.
+    /// Edge-quad crossings, those of one edge closer than [`PARAMETER_TOLERANCE`] merged.
     pub wall_crossings: usize,
     /// Rays cast.
     pub rays: usize,
@@ -262,6 +262,7 @@ impl Walls {
     /// Returns per vertex: `Some(true)` inside, `Some(false)` outside (outside wins).
     fn crossings(&self, own: SideFrame, region: &mut MappingRegion) -> Vec<Option<bool>> {
         let positions = own.mesh.positions();
+        let axis = self.normal_axis();
         let mut tags: Vec<Option<bool>> = vec![None; positions.len()];
         for &[a, b] in own.mesh.index().edges() {
             let (pa, pb) = (
@@ -275,13 +276,16 @@ impl Walls {
             {
                 continue;
             }
+            // Only front-facing edges: g(t) = n(t)·m̂ ≤ 0 at the crossing.
+            let (ga, gb) = (
+                own.normals[a as usize].dot(&axis),
+                own.normals[b as usize].dot(&axis),
+            );
             for seg in &self.segments {
                 let Some((t, s)) = segment_crossing(&pa, &pb, &seg.ends[0], &seg.ends[1]) else {
                     continue;
                 };
-                // Only front-facing edges: g(t) = n(t)·m̂ ≤ 0 at the crossing.
-                let g = |v: u32| own.normals[v as usize].dot(&self.normal_axis());
-                if g(a) * (1.0 - t) + g(b) * t > PARAMETER_TOLERANCE {
+                if ga * (1.0 - t) + gb * t > FRONT_TOLERANCE {
                     continue;
                 }
                 let dir = seg.ends[1] - seg.ends[0];
@@ -384,16 +388,20 @@ fn cross2(a: &Vector2<f64>, b: &Vector2<f64>) -> f64 {
     a.x * b.y - a.y * b.x
 }
 
-/// How far past its ends a segment still counts as crossed, as a fraction of its length, and
-/// how close to 0 a crossing's `n·m̂` still counts as front-facing. A contour point of the other
-/// side may lie on an edge of this side (in a self-contact the two truncated parts share the
-/// cut's vertices, and near the cut the contour runs along shared edges), and an edge through
-/// a contour point crosses both segments that meet there, at their ends: without a tolerance,
-/// round-off decided whether that crossing counted once, twice or not at all, and its front
-/// test (`n·m̂` is 0 on a contour), so the mirror image of a fold had other walls (the crossing
-/// at a segment's start is at its end once the winding is reversed). With it, both segments
-/// count and the crossings of one edge closer than this are merged.
+/// How far past its ends a segment still counts as crossed, as a fraction of its length. A
+/// contour point of the other side may lie on an edge of this side (in a self-contact the two
+/// truncated parts share the cut's vertices, and near the cut the contour runs along shared
+/// edges), and an edge through a contour point crosses both segments that meet there, at their
+/// ends: without a tolerance, round-off decided whether that crossing counted once, twice or
+/// not at all, so the mirror image of a fold had other walls (the crossing at a segment's start
+/// is at its end once the winding is reversed). With it, both segments count and the crossings
+/// of one edge closer than this are merged (one wall point per place: the boundary samples take
+/// the nearest, the propagation only asks whether the edge is a wall).
 const PARAMETER_TOLERANCE: f64 = 1e-9;
+
+/// How far above 0 a crossing's `n·m̂` still counts as front-facing: on a contour `n·m̂` is 0,
+/// and its sign at a crossing there was round-off (the same case as [`PARAMETER_TOLERANCE`]).
+const FRONT_TOLERANCE: f64 = 1e-9;
 
 /// Crossing of segments `p0 p1` and `q0 q1`, ends included up to [`PARAMETER_TOLERANCE`]:
 /// parameters `(t, s)` along each, clamped to `[0, 1]`.

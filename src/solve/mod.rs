@@ -34,6 +34,12 @@ pub enum SolveError {
         /// faer's message.
         message: String,
     },
+    /// The factorization's memory could not be allocated.
+    #[error("out of memory for the Cholesky factorization of the {what} matrix")]
+    OutOfMemory {
+        /// Which matrix.
+        what: &'static str,
+    },
     /// Slot values do not match the pattern.
     #[error("{got} slot values for a pattern of {expected}")]
     SlotCount {
@@ -50,12 +56,13 @@ pub enum SolveError {
 /// timed on the same matrices (the finger, `finger_long`, the mouth and the bending capsule,
 /// LBS, 31 frames, one thread): the heat and Poisson matrices of the working regions
 /// (1361-3060 unknowns, 20-29 operations per nonzero, AMD ordering) factorize in 0.58-0.74 of
-/// the simplicial time and solve in about twice the time (two solves per factorization, each
-/// a seventh of a simplicial factorization): their factorizations and solves together take
-/// 18 % less on `finger_long` (534 → 437 ms over 62 frames), 4-6 % of the pass. The shared
-/// regions' `σ` matrices (280-1080 unknowns, 8-18 per nonzero, one solve each) stay
-/// simplicial, where the supernodal factorization is 1.1-1.9 times slower. (The planar grids
-/// of `cargo bench --bench solve` fill less: its 2k-vertex grid stays simplicial.)
+/// the simplicial time and solve in about twice the time (a supernodal solve costs a fifth to
+/// a quarter of a supernodal factorization, a simplicial one a fourteenth of a simplicial
+/// factorization; two solves per factorization): their factorizations and solves together
+/// take 18 % less on `finger_long` (534 → 437 ms over 62 frames). The shared regions' `σ`
+/// matrices (280-1080 unknowns, 8-18 per nonzero, one solve each) stay simplicial, where the
+/// supernodal factorization is 1.1-1.9 times slower. (The planar grids of `cargo bench --bench
+/// solve` fill less: its 2k-vertex grid stays simplicial.)
 pub const SUPERNODAL_THRESHOLD: SupernodalThreshold = SupernodalThreshold(0.5);
 
 /// The sparsity pattern of a symmetric matrix on `n` unknowns with the given couplings, and its
@@ -140,16 +147,29 @@ impl SpdPattern {
                 got: slots.len(),
             });
         }
+        // Both of faer's paths reject NaN, but an infinite diagonal passes the simplicial one.
+        if slots.iter().any(|v| !v.is_finite()) {
+            return Err(SolveError::NotPositiveDefinite {
+                what,
+                message: "a non-finite value".to_owned(),
+            });
+        }
         let mut values = vec![0.0; self.symbolic.row_idx().len()];
         for (&pos, &v) in self.slot_position.iter().zip(slots) {
             values[pos] += v;
         }
         let mat = SparseColMatRef::new(self.symbolic.as_ref(), &values);
-        let mut numeric = vec![0.0; self.llt.len_val()];
+        let out_of_memory = |_| SolveError::OutOfMemory { what };
+        let mut numeric = Vec::new();
+        numeric
+            .try_reserve_exact(self.llt.len_val())
+            .map_err(out_of_memory)?;
+        numeric.resize(self.llt.len_val(), 0.0);
         let scratch = self
             .llt
             .factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default());
-        let mut buffer = MemBuffer::new(scratch);
+        let mut buffer =
+            MemBuffer::try_new(scratch).map_err(|_| SolveError::OutOfMemory { what })?;
         self.llt
             .factorize_numeric_llt(
                 &mut numeric,
@@ -323,8 +343,16 @@ mod tests {
                 pattern.factor(&bad, "test"),
                 Err(SolveError::NotPositiveDefinite { .. })
             ));
-            bad[n / 2] = f64::NAN;
-            assert!(pattern.factor(&bad, "test").is_err(), "{n} unknowns: NaN");
+            for v in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+                bad[n / 2] = v;
+                assert!(
+                    matches!(
+                        pattern.factor(&bad, "test"),
+                        Err(SolveError::NotPositiveDefinite { .. })
+                    ),
+                    "{n} unknowns: {v}"
+                );
+            }
         }
     }
 
