@@ -68,7 +68,7 @@ pub struct MappingStats {
     pub projected: usize,
     /// Contour segments of the other side extruded.
     pub contour_segments: usize,
-    /// Edge-quad crossings, those of one edge closer than [`PARAMETER_TOLERANCE`] merged.
+    /// Edge-quad crossings, those of one edge closer than 1e-9 of its length merged.
     pub wall_crossings: usize,
     /// Rays cast.
     pub rays: usize,
