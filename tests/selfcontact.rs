@@ -675,12 +675,14 @@ fn reflect(s: &Matrix4<f64>, bodies: &[Vec<Point3<f64>>]) -> Vec<Vec<Point3<f64>
 ///   contour or not, and Eq. 4's threshold, a statistic of those, turning that into a zone
 ///   vertex more or less), mouth 8.9e-5 h, capsule 1.6e-4 h; before the walls' crossings at
 ///   contour points were made independent of round-off: 5.8e-2, 8.9e-5 and 5.6e-3 h.
-/// - a plane tilted against every axis (normal `(1, 2, 3)`), where every coordinate rounds
-///   differently: finger 0.13 h, mouth 8.7e-3 h, capsule 0.35 h. A rotation of the rig (1 rad
-///   about the same axis, no reflection) differs as much (0.15, 7.8e-3, 0.39 h): this is the
-///   pass's sensitivity to round-off at its ties (the capsule's crease cut, for one, has two
-///   mirror-image cuts of equal cost at `β = 0.5`), not handedness. The bounds guard these
-///   measurements.
+/// - a plane tilted against every axis (normal `(1, 2, 3)`): finger 0.13 h, mouth 8.7e-3 h,
+///   capsule 0.35 h. A rotation of the rig (1 rad about the same axis, no reflection) differs
+///   as much (0.15, 7.8e-3, 0.39 h): not handedness, but the frame the rig is given in. Each
+///   joint's size, which scales `φ̄`, is the diagonal of its shared region's axis-aligned rest
+///   bounding box, which a rotation changes; with a rotation-invariant size (the region's
+///   diameter, tried) the rotated finger differs by 1.7e-2 h and the capsule by 0.16 h, the rest
+///   being round-off at the pass's ties (the capsule's crease cut, for one, has two
+///   mirror-image cuts of equal cost at `β = 0.5`). The bounds guard these measurements.
 #[test]
 fn a_fold_and_its_mirror_image_agree() {
     let planes = [

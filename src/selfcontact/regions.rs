@@ -93,7 +93,10 @@ pub struct PairRegions {
 
 impl PairRegions {
     /// The joint's size: the diagonal of the bounding box of the shared region `R` at `rest`
-    /// (the unit of [`crate::selfcontact::fold::FoldParams::joint_extent`]).
+    /// (the unit of [`crate::selfcontact::fold::FoldParams::joint_extent`]). The box is
+    /// axis-aligned, so the size, and the fold's extent with it, depend on the orientation the
+    /// rig is given in: rotated by 1 rad, the finger's output moves by 0.15 h, 1.7e-2 h with a
+    /// rotation-invariant size (`a_fold_and_its_mirror_image_agree`'s doc).
     pub fn joint_size(&self, rest: &[Point3<f64>]) -> f64 {
         let points: Vec<Point3<f64>> = self
             .shared
