@@ -5,7 +5,7 @@
 //! is evaluated in parallel and the output does not depend on the thread count.
 
 use crate::mesh::WeldedMesh;
-use crate::rig::Rig;
+use crate::rig::{Pose, Rig};
 use crate::skinning::{self, cor::CorCenters, Method, Skinned};
 use rayon::prelude::*;
 
@@ -60,7 +60,12 @@ pub fn evaluate(
     index: usize,
     t: f64,
 ) -> Frame {
-    let pose = rig.pose_at(animation, t);
+    evaluate_pose(rig, pre, &rig.pose_at(animation, t), index, t)
+}
+
+/// Skins every body of `rig` at `pose`, wherever the pose comes from (an animation, a hand
+/// tracker writing joint matrices, a test); `index` and `t` label the frame.
+pub fn evaluate_pose(rig: &Rig, pre: &Precomputed, pose: &Pose, index: usize, t: f64) -> Frame {
     let bodies = rig
         .bodies
         .iter()

@@ -737,7 +737,8 @@ fn mirror_run(name: &str, s: &Matrix4<f64>) -> (f64, f64) {
             world: pose.world.iter().map(|w| s * w * s).collect(),
         };
         // The mirrored rig skinned at the mirrored pose is the mirrored input.
-        let m_input = skinned_welded(&m_rig, &m_pre, &m_pose);
+        let m_input =
+            contact_skin::frames::evaluate_pose(&m_rig, &m_pre, &m_pose, f, 0.0).welded(&m_pre);
         let skinned = max_distance(&m_input[0], &reflect(s, &input)[0]) / l.h_rest;
         assert!(skinned < 1e-9, "{name} frame {f}: skinning {skinned:e} h");
         let mut out = input.clone();
@@ -751,28 +752,6 @@ fn mirror_run(name: &str, s: &Matrix4<f64>) -> (f64, f64) {
         moved = moved.max(max_distance(&out[0], &input[0]) / l.h_rest);
     }
     (worst, moved)
-}
-
-/// The welded positions of `rig` skinned (LBS) at `pose`.
-fn skinned_welded(
-    rig: &rig::Rig,
-    pre: &contact_skin::frames::Precomputed,
-    pose: &rig::Pose,
-) -> Vec<Vec<Point3<f64>>> {
-    let bodies = rig
-        .bodies
-        .iter()
-        .map(|body| {
-            let matrices = pose.skin_matrices(&rig.skins[body.skin]);
-            contact_skin::skinning::skin(Method::Lbs, body, &matrices, None)
-        })
-        .collect();
-    let frame = contact_skin::frames::Frame {
-        index: 0,
-        time: 0.0,
-        bodies,
-    };
-    frame.welded(pre)
 }
 
 fn max_distance(a: &[Point3<f64>], b: &[Point3<f64>]) -> f64 {

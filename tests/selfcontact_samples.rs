@@ -426,19 +426,7 @@ fn a_tracked_hand_curls_into_contact() {
         &fingers,
         [0.0, 110f64.to_radians(), 90f64.to_radians()],
     );
-    let bodies = rig
-        .bodies
-        .iter()
-        .map(|body| {
-            let matrices = pose.skin_matrices(&rig.skins[body.skin]);
-            contact_skin::skinning::skin(Method::Lbs, body, &matrices, None)
-        })
-        .collect();
-    let frame = frames::Frame {
-        index: 0,
-        time: 0.0,
-        bodies,
-    };
+    let frame = frames::evaluate_pose(&rig, &pre, &pose, 0, 0.0);
     let input = frame.welded(&pre);
     let mut out = input.clone();
     let res = pass.run(&rig, &pose, &mut out).expect("self-contact runs");

@@ -147,29 +147,30 @@ impl SpdPattern {
                 got: slots.len(),
             });
         }
+        let mut values = vec![0.0; self.symbolic.row_idx().len()];
+        let mut finite = true;
+        for (&pos, &v) in self.slot_position.iter().zip(slots) {
+            values[pos] += v;
+            finite &= v.is_finite();
+        }
         // Both of faer's paths reject NaN, but an infinite diagonal passes the simplicial one.
-        if slots.iter().any(|v| !v.is_finite()) {
+        if !finite {
             return Err(SolveError::NotPositiveDefinite {
                 what,
                 message: "a non-finite value".to_owned(),
             });
         }
-        let mut values = vec![0.0; self.symbolic.row_idx().len()];
-        for (&pos, &v) in self.slot_position.iter().zip(slots) {
-            values[pos] += v;
-        }
         let mat = SparseColMatRef::new(self.symbolic.as_ref(), &values);
-        let out_of_memory = |_| SolveError::OutOfMemory { what };
+        let out_of_memory = SolveError::OutOfMemory { what };
         let mut numeric = Vec::new();
-        numeric
-            .try_reserve_exact(self.llt.len_val())
-            .map_err(out_of_memory)?;
+        if numeric.try_reserve_exact(self.llt.len_val()).is_err() {
+            return Err(out_of_memory);
+        }
         numeric.resize(self.llt.len_val(), 0.0);
         let scratch = self
             .llt
             .factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default());
-        let mut buffer =
-            MemBuffer::try_new(scratch).map_err(|_| SolveError::OutOfMemory { what })?;
+        let mut buffer = MemBuffer::try_new(scratch).map_err(|_| out_of_memory)?;
         self.llt
             .factorize_numeric_llt(
                 &mut numeric,
