@@ -1045,7 +1045,7 @@ fn info_reports_the_joint_pairs_and_their_direction_source() {
     let size = p["joint_size"].as_f64().expect("joint size");
     let extent = p["extent"].as_f64().expect("extent");
     assert!(
-        (extent - 1.75 * size).abs() < 1e-9 * size,
+        (extent - contact_skin::selfcontact::fold::DEFAULT_JOINT_EXTENT * size).abs() < 1e-9 * size,
         "{extent} {size}"
     );
     let _ = std::fs::remove_dir_all(&dir);

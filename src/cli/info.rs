@@ -86,7 +86,7 @@ struct SelfPairInfo {
     /// The same, for the text report.
     #[serde(skip)]
     source: DirectionSource,
-    /// The joint's size (diagonal of `R`'s rest bounding box).
+    /// The joint's size (the diameter of `R` at rest).
     joint_size: f64,
     /// `φ̄` of this pair in scene units.
     extent: f64,
@@ -356,7 +356,7 @@ fn describe_contact(
         return Ok(None);
     };
     let (params, overrides, passes) = cfg.resolve(rig, welded)?;
-    let diagonals = config::rest_diagonals(rig);
+    let diameters = config::rest_diameters(rig);
     let mut configured: Vec<Option<&config::ObjectSpec>> = vec![None; rig.bodies.len()];
     for (i, o) in cfg.objects.iter().enumerate() {
         let b = cfg.body_index(rig, &o.name, &format!("object[{i}].name"))?;
@@ -371,7 +371,7 @@ fn describe_contact(
             configured: configured[b].is_some(),
             stiffness: p.stiffness.is_finite().then_some(p.stiffness),
             tau: p.tau,
-            extent: p.extent.unwrap_or(DEFAULT_EXTENT_FACTOR * diagonals[b]),
+            extent: p.extent.unwrap_or(DEFAULT_EXTENT_FACTOR * diameters[b]),
             gamma: p.gamma,
             omega: p.omega,
             bulge_map: configured[b].and_then(|o| o.bulge_map.clone()),

@@ -11,7 +11,7 @@ pub mod region;
 
 pub use region::Region;
 
-use nalgebra::Point3;
+use nalgebra::{Point3, Vector3};
 use std::collections::HashMap;
 
 /// Default weld tolerance, relative to the bounding-box diagonal.
@@ -122,6 +122,61 @@ pub fn bbox_diagonal(points: &[Point3<f64>]) -> f64 {
         return scale;
     }
     scale * (d / scale).norm()
+}
+
+/// The diameter of a point set: the largest distance between two of its points (0 for fewer
+/// than two points; not finite when a coordinate is not). Unlike [`bbox_diagonal`] it does not
+/// change when the points are rotated or reflected: it is the size that scales the extent `φ̄`
+/// of a joint ([`crate::selfcontact::regions::PairRegions::joint_size`]) and of an object
+/// ([`crate::pass::DEFAULT_EXTENT_FACTOR`]).
+///
+/// Exact. Pairs are visited from the points farthest from the centroid inward and skipped by
+/// the triangle inequality (`|p - q| ≤ r_p + r_q` with `r` the distance to the centroid), so
+/// that elongated sets cost about `n log n`; a set whose points all lie at the same distance
+/// from its centroid (a sphere) costs `n² / 2` distances.
+pub fn diameter(points: &[Point3<f64>]) -> f64 {
+    if points.len() < 2 {
+        return 0.0;
+    }
+    if let Some(bad) = points
+        .iter()
+        .flat_map(|p| p.iter())
+        .find(|c| !c.is_finite())
+    {
+        return bad.abs();
+    }
+    let centroid = points
+        .iter()
+        .fold(Vector3::zeros(), |s, p| s + p.coords / points.len() as f64);
+    // Scaled to the largest offset, so that coordinates near 1e200 do not overflow the squares.
+    let scale = points
+        .iter()
+        .map(|p| (p.coords - centroid).amax())
+        .fold(0.0, f64::max);
+    if scale == 0.0 || !scale.is_finite() {
+        return scale;
+    }
+    let mut offsets: Vec<(f64, Vector3<f64>)> = points
+        .iter()
+        .map(|p| {
+            let v = (p.coords - centroid) / scale;
+            (v.norm(), v)
+        })
+        .collect();
+    offsets.sort_unstable_by(|a, b| b.0.total_cmp(&a.0));
+    let mut best = 0.0_f64;
+    for (i, (ri, vi)) in offsets.iter().enumerate() {
+        if 2.0 * ri <= best {
+            break;
+        }
+        for (rj, vj) in &offsets[i + 1..] {
+            if ri + rj <= best {
+                break;
+            }
+            best = best.max((vi - vj).norm());
+        }
+    }
+    best * scale
 }
 
 /// Merges points closer than `tol` (in file order: the first point of a cluster represents it).
@@ -235,6 +290,40 @@ mod tests {
         assert!((bbox_diagonal(&p) - 5e200).abs() < 1e188);
         let q = [Point3::new(0.0, 0.0, 0.0), Point3::new(3.0, 4.0, 0.0)];
         assert_eq!(bbox_diagonal(&q), 5.0);
+    }
+
+    #[test]
+    fn the_diameter_is_the_largest_distance_and_does_not_turn_with_the_points() {
+        // A cube: its space diagonal, whatever the rotation.
+        let cube: Vec<Point3<f64>> = (0..8)
+            .map(|i| Point3::new((i & 1) as f64, (i >> 1 & 1) as f64, (i >> 2 & 1) as f64))
+            .collect();
+        assert!((diameter(&cube) - 3f64.sqrt()).abs() < 1e-15);
+        let r = nalgebra::Rotation3::from_euler_angles(0.3, 1.1, -0.7);
+        let turned: Vec<Point3<f64>> = cube.iter().map(|p| r * p).collect();
+        assert!((diameter(&turned) - 3f64.sqrt()).abs() < 1e-14);
+        // The box diagonal changes under the same rotation (the reason for the diameter).
+        assert!((bbox_diagonal(&turned) - bbox_diagonal(&cube)).abs() > 0.1);
+        // Against the brute force on a lopsided cloud, including points equidistant from the
+        // centroid (a circle) where the pruning cannot skip anything.
+        let mut cloud: Vec<Point3<f64>> = (0..60)
+            .map(|k| {
+                let a = k as f64 * 0.37;
+                Point3::new(a.cos(), a.sin(), 0.0)
+            })
+            .collect();
+        cloud.extend((0..40).map(|k| Point3::new(0.1 * k as f64, 0.05 * (k * k % 7) as f64, 0.3)));
+        let brute = cloud
+            .iter()
+            .flat_map(|p| cloud.iter().map(move |q| (p - q).norm()))
+            .fold(0.0, f64::max);
+        assert!((diameter(&cloud) - brute).abs() < 1e-14 * brute);
+        assert_eq!(diameter(&cloud[..1]), 0.0);
+        assert_eq!(diameter(&[]), 0.0);
+        let huge = [Point3::new(0.0, 0.0, 0.0), Point3::new(3e200, 4e200, 0.0)];
+        assert!((diameter(&huge) - 5e200).abs() < 1e188);
+        let nan = [Point3::new(0.0, 0.0, 0.0), Point3::new(f64::NAN, 0.0, 0.0)];
+        assert!(diameter(&nan).is_nan());
     }
 
     /// A unit cube with 4 split vertices per face (24 file vertices), outward CCW.

@@ -92,18 +92,20 @@ pub struct PairRegions {
 }
 
 impl PairRegions {
-    /// The joint's size: the diagonal of the bounding box of the shared region `R` at `rest`
-    /// (the unit of [`crate::selfcontact::fold::FoldParams::joint_extent`]). The box is
-    /// axis-aligned, so the size, and the fold's extent with it, depend on the orientation the
-    /// rig is given in: rotated by 1 rad, the finger's output moves by 0.15 h, 1.7e-2 h with a
-    /// rotation-invariant size (`a_fold_and_its_mirror_image_agree`'s doc).
+    /// The joint's size: the diameter of the shared region `R` at `rest` (the largest distance
+    /// between two of its vertices; the unit of
+    /// [`crate::selfcontact::fold::FoldParams::joint_extent`]). A distance, so that the size,
+    /// and the fold's extent with it, do not depend on the orientation the rig is given in
+    /// (the diagonal of an axis-aligned box, the former size, lies between 1 and √3 diameters
+    /// as the orientation goes: with it the finger rotated by 1 rad came out 0.15 h away from
+    /// the finger's output rotated, 1.9e-2 h now; `a_fold_and_its_mirror_image_agree`).
     pub fn joint_size(&self, rest: &[Point3<f64>]) -> f64 {
         let points: Vec<Point3<f64>> = self
             .shared
             .iter()
             .filter_map(|&v| rest.get(v as usize).copied())
             .collect();
-        crate::mesh::bbox_diagonal(&points)
+        crate::mesh::diameter(&points)
     }
 }
 
