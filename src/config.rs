@@ -6,7 +6,7 @@
 //! [defaults]                      # optional, for every object
 //! stiffness = 1.0                 # pseudo-stiffness k, or "rigid"
 //! tau = 0.0
-//! extent = 0.3                    # φ̄ in scene units; or extent_factor = 0.5 (× rest diameter)
+//! extent = 0.3                    # φ̄ in scene units; or extent_factor = 0.5 (× rest size)
 //! gamma = 1.0
 //! omega = 2.0
 //! [[object]]
@@ -24,7 +24,7 @@
 //! grow_rings = 2
 //! stiffness = 0.5                 # k̄ of the parent side, in [0, 1]
 //! tau = -1.0                      # the paper's Fig. 13 and 15 (default)
-//! joint_extent = 2.3              # φ̄ × the joint's size (default); or extent / extent_factor
+//! joint_extent = 1.5              # φ̄ × the joint's size (default); or extent / extent_factor
 //! gamma = 1.0
 //! omega = 2.0
 //! turn_guard = true               # scale the displacement back where a face would turn over
@@ -42,7 +42,7 @@
 //! [`ConfigError`] naming the file and the field (`object[1].stiffness`,
 //! `pair[0].direction_keys[2]`, `self_contact.pair[0].name`, ...).
 
-use crate::mesh::{diameter, WeldedMesh};
+use crate::mesh::{surface_size, WeldedMesh};
 use crate::pass::{DirectionTrack, ObjectParams, PairOverride, DEFAULT_PASSES};
 use crate::rig::{Confinement, Rig};
 use crate::selfcontact::fold::FoldParams;
@@ -360,7 +360,7 @@ pub struct ParamSpec {
     pub tau: Option<f64>,
     /// `φ̄` in scene units.
     pub extent: Option<f64>,
-    /// `φ̄` as a fraction of the object's rest diameter ([`rest_diameters`]).
+    /// `φ̄` as a fraction of the object's rest size ([`rest_sizes`]).
     pub extent_factor: Option<f64>,
     /// `γ`.
     pub gamma: Option<f64>,
@@ -459,7 +459,7 @@ pub struct SelfContactSpec {
     pub tau: Option<f64>,
     /// `φ̄` in scene units.
     pub extent: Option<f64>,
-    /// `φ̄` as a fraction of the body's rest diameter ([`rest_diameters`]).
+    /// `φ̄` as a fraction of the body's rest size ([`rest_sizes`]).
     pub extent_factor: Option<f64>,
     /// `φ̄` as a multiple of each joint's size ([`FoldParams::joint_extent`], the default).
     pub joint_extent: Option<f64>,
@@ -875,15 +875,18 @@ fn usable_direction(d: &[f64; 3]) -> bool {
 // ---------------------------------------------------------------------------------------------
 // Resolution against a rig
 
-/// Diameter of each body at the rest pose (linear blend skinning, no animation;
-/// [`crate::mesh::diameter`]): the reference of `extent_factor`.
-pub fn rest_diameters(rig: &Rig) -> Vec<f64> {
+/// Size of each body at the rest pose (linear blend skinning, no animation;
+/// [`crate::mesh::surface_size`]): the reference of `extent_factor`.
+pub fn rest_sizes(rig: &Rig) -> Vec<f64> {
     let pose = rig.pose_at(None, 0.0);
     rig.bodies
         .iter()
         .map(|b| {
             let mats = pose.skin_matrices(&rig.skins[b.skin]);
-            diameter(&crate::skinning::lbs::skin(b, &mats).positions)
+            surface_size(
+                &crate::skinning::lbs::skin(b, &mats).positions,
+                &b.triangles,
+            )
         })
         .collect()
 }
@@ -923,8 +926,8 @@ impl ContactConfig {
                 ),
             ));
         }
-        let diameters = rest_diameters(rig);
-        let mut params: Vec<ObjectParams> = diameters
+        let sizes = rest_sizes(rig);
+        let mut params: Vec<ObjectParams> = sizes
             .iter()
             .map(|&d| object_params(&self.defaults, d))
             .collect();
@@ -941,7 +944,7 @@ impl ContactConfig {
                 });
             }
             seen[b] = Some(i);
-            params[b] = object_params(&self.defaults.overlay(&o.params()), diameters[b]);
+            params[b] = object_params(&self.defaults.overlay(&o.params()), sizes[b]);
             if let Some(map) = &o.bulge_map {
                 let field = format!("{at}.bulge_map");
                 params[b].painted = Some(self.painted(rig, &welded[b], b, map, &field)?);
@@ -1032,14 +1035,14 @@ impl ContactConfig {
 }
 
 /// The pass parameters of a (merged) spec; unset values keep [`ObjectParams::default`].
-fn object_params(p: &ParamSpec, rest_diameter: f64) -> ObjectParams {
+fn object_params(p: &ParamSpec, rest_size: f64) -> ObjectParams {
     let d = ObjectParams::default();
     ObjectParams {
         stiffness: p.stiffness.map_or(d.stiffness, |s| s.0),
         tau: p.tau.unwrap_or(d.tau),
         extent: p
             .extent
-            .or(p.extent_factor.map(|f| f * rest_diameter))
+            .or(p.extent_factor.map(|f| f * rest_size))
             .or(d.extent),
         gamma: p.gamma.unwrap_or(d.gamma),
         omega: p.omega.unwrap_or(d.omega),
@@ -1109,8 +1112,8 @@ impl ContactConfig {
     /// Resolves `[self_contact]` given the joint pairs derived from the rig, `(body, name)` as
     /// [`derive_pairs`] or [`crate::selfcontact::pass::SelfContactPass::pairs`] give them:
     /// every value the file does not set keeps [`FoldParams::default`] (and
-    /// [`RegionOptions::default`]); `extent_factor` multiplies the rest diameter
-    /// ([`rest_diameters`]) of the body of the pairs (the largest when several bodies have
+    /// [`RegionOptions::default`]); `extent_factor` multiplies the rest size
+    /// ([`rest_sizes`]) of the body of the pairs (the largest when several bodies have
     /// pairs, since one [`FoldParams`] serves every pair); a `[[self_contact.pair]]` naming no
     /// derived pair is a [`ConfigError::UnknownPair`] listing the derived names. Directions
     /// are normalized.
@@ -1143,18 +1146,18 @@ impl ContactConfig {
             params.deform.extent = e;
             params.joint_extent = None;
         } else if let Some(f) = spec.extent_factor {
-            let diameters = rest_diameters(rig);
+            let sizes = rest_sizes(rig);
             let with_pairs = derived
                 .iter()
-                .filter_map(|(b, _)| diameters.get(*b).copied())
+                .filter_map(|(b, _)| sizes.get(*b).copied())
                 .fold(f64::NAN, f64::max);
-            let all = diameters.iter().copied().fold(f64::NAN, f64::max);
-            let diameter = if with_pairs.is_nan() { all } else { with_pairs };
-            let extent = f * diameter;
+            let all = sizes.iter().copied().fold(f64::NAN, f64::max);
+            let size = if with_pairs.is_nan() { all } else { with_pairs };
+            let extent = f * size;
             if !(extent.is_finite() && extent > 0.0) {
                 return Err(self.invalid(
                     "self_contact.extent_factor",
-                    format!("gives the extent {extent} (rest diameter {diameter})"),
+                    format!("gives the extent {extent} (rest size {size})"),
                 ));
             }
             params.deform.extent = extent;

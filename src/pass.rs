@@ -23,15 +23,16 @@ use std::time::Instant;
 /// A body at rest: welded positions and triangles.
 pub type RestBody<'a> = (&'a [Point3<f64>], &'a [[u32; 3]]);
 
-/// Default `φ̄` as a fraction of the object's rest diameter ([`crate::mesh::diameter`]): √3/2,
-/// which keeps a round object's extent where the former default, half the diagonal of the
-/// axis-aligned rest bounding box (√3 diameters for a sphere), put it, without the box's
-/// dependence on the orientation the rig is given in. Measured on the committed object scenes
-/// (91 frames, worst frame; `pose --metrics`): the squashed ball and the sphere on the plane
-/// keep their temporal ratios (1.35, 1.66) and no penetrating vertex; with half the diameter
-/// instead the sphere on the plane keeps up to 38 penetrating vertices (ratio 2.34), with 0.7
-/// none (2.02).
-pub const DEFAULT_EXTENT_FACTOR: f64 = 0.866_025_403_784_438_6;
+/// Default `φ̄` as a fraction of the object's rest size ([`crate::mesh::surface_size`]): one
+/// half. The size was the diagonal of the object's axis-aligned rest bounding box until
+/// 2026-12-02, which a rotation of the rig changes; the surface's second moment equals it on a
+/// sphere and, on the committed object scenes, within 0.3 % on the balls, 2 % on the capsules,
+/// 7 % on the fingertips and 11 % on the slab, whose results stay as they were (the rotated
+/// scenes give the rotated results to round-off: `rotating_the_rig_rotates_the_result`). A
+/// default based on the diameter, which is rotation-invariant too, could not follow both round
+/// and long objects: half a diameter let the sphere on the slab keep up to 38 penetrating
+/// vertices, √3/2 of one made the fingertips' frames 45 % slower.
+pub const DEFAULT_EXTENT_FACTOR: f64 = 0.5;
 
 /// Default number of passes per frame (see [`ContactPass::with_passes`]).
 pub const DEFAULT_PASSES: usize = 2;
@@ -44,7 +45,7 @@ pub struct ObjectParams {
     /// `τ` (Eq. 4) used when this object is the softer one of a pair.
     pub tau: f64,
     /// `φ̄`, extent of the deformation (scene units); `None`: [`DEFAULT_EXTENT_FACTOR`] times
-    /// the object's rest diameter.
+    /// the object's rest size ([`crate::mesh::surface_size`]).
     pub extent: Option<f64>,
     /// `γ`: 0 no bulge, 1 exact volume, > 1 exaggeration.
     pub gamma: f64,
@@ -339,9 +340,9 @@ impl ContactPass {
                     .map_err(|source| PassError::Intersect { body, source })?;
                 let region = WorkingRegion::whole(tris, pos.len())
                     .map_err(|source| PassError::Solve { body, source })?;
-                let extent = p
-                    .extent
-                    .unwrap_or_else(|| DEFAULT_EXTENT_FACTOR * crate::mesh::diameter(pos));
+                let extent = p.extent.unwrap_or_else(|| {
+                    DEFAULT_EXTENT_FACTOR * crate::mesh::surface_size(pos, tris)
+                });
                 let deform = DeformParams {
                     extent,
                     gamma: p.gamma,

@@ -138,12 +138,12 @@ fn a_full_example_parses_and_resolves() {
     for (w, &f) in welded[0].representative.iter().enumerate() {
         assert_eq!(painted[w], f as f64 / 1513.0);
     }
-    // thumb: rigid, extent from its own factor times the rest diameter.
+    // thumb: rigid, extent from its own factor times the rest size.
     let thumb = &params[1];
     assert!(thumb.stiffness.is_infinite());
     assert_eq!(thumb.gamma, 0.0);
-    let diameter = contact_skin::config::rest_diameters(&rig)[1];
-    assert!((thumb.extent.expect("extent") - 0.5 * diameter).abs() < 1e-12);
+    let size = contact_skin::config::rest_sizes(&rig)[1];
+    assert!((thumb.extent.expect("extent") - 0.5 * size).abs() < 1e-12);
     // index: untouched defaults; middle: omega 0 (an integer in the file).
     assert_eq!(
         params[2],
@@ -677,14 +677,14 @@ fn the_self_contact_table_parses_and_resolves() {
     assert!(cfg.self_contact_needs_pairs());
     let (rig, welded) = load_mouth(&dir);
     let settings = cfg.resolve_self_contact(&rig, &welded).expect("resolves");
-    let diameter = contact_skin::config::rest_diameters(&rig)[0];
+    let size = contact_skin::config::rest_sizes(&rig)[0];
     let mut params = FoldParams {
         stiffness_1: 0.7,
         tau: 0.2,
         joint_extent: None,
         ..Default::default()
     };
-    params.deform.extent = 0.25 * diameter;
+    params.deform.extent = 0.25 * size;
     params.deform.gamma = 0.5;
     params.deform.omega = 1.0;
     let expected = SelfContactSettings {
@@ -724,7 +724,7 @@ fn the_turn_guard_is_a_setting() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// `joint_extent` sets `φ̄` per joint (the default, 2.3); `extent` or `extent_factor` set it in
+/// `joint_extent` sets `φ̄` per joint (the default, 1.5); `extent` or `extent_factor` set it in
 /// scene units for every joint instead.
 #[test]
 fn the_fold_extent_is_per_joint_unless_given_in_scene_units() {

@@ -174,16 +174,7 @@ fn zone_gap(l: &Loaded, kbar: f64) -> f64 {
     let nb = l.triangles.len();
     let mut k = vec![1.0; nb];
     k[0] = stiffness_for(kbar);
-    let mut params = object_params(nb, &k, 0.0);
-    // The extent pinned to the state the bounds below were measured in: half of each body's
-    // rest box diagonal, the former default. The default (√3/2 of the body's diameter) is 63 %
-    // larger on the capsules, where the gap then shrinks less cleanly with h (0.0324 → 0.0221 h
-    // at k̄0 = 0, a ratio of 0.68).
-    let rest = welded_positions(&l.rig, &l.pre, 0.0, None);
-    for (p, r) in params.iter_mut().zip(&rest) {
-        p.extent = Some(0.5 * contact_skin::mesh::bbox_diagonal(r));
-    }
-    let pass = l.pass(params, vec![]).with_passes(1);
+    let pass = l.pass(object_params(nb, &k, 0.0), vec![]).with_passes(1);
     let mut worst: f64 = 0.0;
     for f in [15, 21, 27, 30] {
         let out = pass.run(&l.frame(f)).expect("pass runs");
@@ -252,10 +243,10 @@ fn swapping_the_objects_gives_the_same_result() {
 }
 
 /// The rig given in another frame gives the same result in that frame: every scene rotated by
-/// 1 rad about `(1, 2, 3)` (rest and posed positions), with the default extents (√3/2 of each
-/// object's rest diameter, a distance, which the rotation leaves alone), `k̄0` 0.5, frames 15,
-/// 21, 27 and 30, one pass. Measured: the rotated outputs differ from the outputs rotated by
-/// 9.3e-14 h at most (round-off). While the default extent was half the axis-aligned rest
+/// 1 rad about `(1, 2, 3)` (rest and posed positions), with the default extents (half of each
+/// object's rest size, a second moment of its surface, which the rotation leaves alone), equal
+/// stiffness, frames 15, 21, 27 and 30, one pass. Measured: the rotated outputs differ from
+/// the outputs rotated by 1.4e-13 h at most (round-off). While the default extent was half the axis-aligned rest
 /// bounding box's diagonal, which a rotation changes, they differed by 0.17 h (the capsule
 /// pair, the sphere on the slab) and 9.8e-3 h (the fingertips).
 #[test]

@@ -202,8 +202,8 @@ fn real_characters_never_get_worse() {
         assert!(s.volume < 1e-4, "{rel}: volume error {:.1e}", s.volume);
         // The turn guard: CesiumMan's 21 frames turned 225 faces over (37 buried) without it,
         // 2 with it (1 buried; against the frame's input and the file normals skinned, which
-        // the guard's LBS reference only approximates), for about the same penetration; 3 (2
-        // buried) since the joints' sizes are their shared regions' diameters.
+        // the guard's LBS reference only approximates), for about the same penetration (2, 0
+        // buried, with the joints' sizes as second moments).
         assert!(
             s.turned.turned <= 5,
             "{rel}: {} faces turned over",
@@ -288,15 +288,15 @@ fn intersections_without_a_contact_zone_are_not_folds() {
     }
 }
 
-/// CesiumMan's walk over 61 frames, second-difference ratio against the skinned input: 7.95
-/// measured (frame 15, vertex 1312 at the hips), above the bound of 3, which is open:
-/// the hips-spine fold starts with a one-vertex zone whose ray leaves at 79° to its normal,
-/// just inside the paper's 80° safeguard, and lands 4.5 h away, so the zone's birth moves it
-/// and its neighbours by 2-4 h at once. This guards against it getting worse. (At 21 frames
-/// the input's own second differences are as large, and the ratio reads 1.3.) The pop's size
-/// follows the joints' extent, not monotonically: 6.88, 7.83, 7.95 and 7.35 with
-/// `joint_extent` 2.0, 2.2, 2.3 (the default) and 2.5; 7.31 while the joints' sizes were boxes'
-/// diagonals; the bound was 8.0 then.
+/// CesiumMan's walk over 61 frames, second-difference ratio against the skinned input: 7.05
+/// measured (frame 17, vertex 1795), above the bound of 3, which is open. While the
+/// joints' sizes were box diagonals the worst pop was at the hips (7.31, frame 15, vertex
+/// 1312): the hips-spine fold starts with a one-vertex zone whose ray leaves at 79° to its
+/// normal, just inside the paper's 80° safeguard, and lands 4.5 h away, so the zone's birth
+/// moves it and its neighbours by 2-4 h at once. The pop's size follows the joints' extent,
+/// not monotonically (with the regions' diameters as sizes: 6.88, 7.83, 7.95 and 7.35 at 2.0,
+/// 2.2, 2.3 and 2.5 of them). This guards against it getting worse. (At 21 frames the input's
+/// own second differences are as large, and the ratio reads 1.2.)
 #[test]
 fn cesium_man_walk_pops_no_more_than_measured() {
     let rel = "CesiumMan/CesiumMan.glb";
@@ -316,7 +316,7 @@ fn cesium_man_walk_pops_no_more_than_measured() {
         "{rel}: second-difference ratio {:.2} (frame {:?}, vertex {:?})",
         sd.ratio, sd.frame, sd.vertex
     );
-    assert!(sd.ratio < 8.5, "ratio {:.2}", sd.ratio);
+    assert!(sd.ratio < 8.0, "ratio {:.2}", sd.ratio);
 }
 
 /// CesiumMan with the object pass's extent floor (`κ = 3`), which spreads a fold whose

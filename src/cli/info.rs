@@ -86,7 +86,7 @@ struct SelfPairInfo {
     /// The same, for the text report.
     #[serde(skip)]
     source: DirectionSource,
-    /// The joint's size (the diameter of `R` at rest).
+    /// The joint's size (`PairRegions::joint_size`: a second moment of `R` at rest).
     joint_size: f64,
     /// `φ̄` of this pair in scene units.
     extent: f64,
@@ -246,17 +246,16 @@ fn describe_self_contact(
     };
     let f = &settings.params;
     // The rest pose as the pass sees it (skinned at rest: node transforms included).
-    let rest = contact_skin::frames::welded_positions(
-        rig,
-        &contact_skin::frames::Precomputed::new(rig, contact_skin::skinning::Method::Lbs),
-        None,
-        0.0,
-    );
+    let pre = contact_skin::frames::Precomputed::new(rig, contact_skin::skinning::Method::Lbs);
+    let rest = contact_skin::frames::welded_positions(rig, &pre, None, 0.0);
     let pairs = regions
         .iter()
         .map(|r| {
             let p = &r.pair;
-            let joint_size = rest.get(p.body).map_or(f64::NAN, |x| r.joint_size(x));
+            let joint_size = rest
+                .get(p.body)
+                .zip(pre.welded.get(p.body))
+                .map_or(f64::NAN, |(x, w)| r.joint_size(x, &w.triangles));
             let source = settings
                 .directions
                 .iter()
@@ -356,7 +355,7 @@ fn describe_contact(
         return Ok(None);
     };
     let (params, overrides, passes) = cfg.resolve(rig, welded)?;
-    let diameters = config::rest_diameters(rig);
+    let sizes = config::rest_sizes(rig);
     let mut configured: Vec<Option<&config::ObjectSpec>> = vec![None; rig.bodies.len()];
     for (i, o) in cfg.objects.iter().enumerate() {
         let b = cfg.body_index(rig, &o.name, &format!("object[{i}].name"))?;
@@ -371,7 +370,7 @@ fn describe_contact(
             configured: configured[b].is_some(),
             stiffness: p.stiffness.is_finite().then_some(p.stiffness),
             tau: p.tau,
-            extent: p.extent.unwrap_or(DEFAULT_EXTENT_FACTOR * diameters[b]),
+            extent: p.extent.unwrap_or(DEFAULT_EXTENT_FACTOR * sizes[b]),
             gamma: p.gamma,
             omega: p.omega,
             bulge_map: configured[b].and_then(|o| o.bulge_map.clone()),

@@ -124,59 +124,73 @@ pub fn bbox_diagonal(points: &[Point3<f64>]) -> f64 {
     scale * (d / scale).norm()
 }
 
-/// The diameter of a point set: the largest distance between two of its points (0 for fewer
-/// than two points; not finite when a coordinate is not). Unlike [`bbox_diagonal`] it does not
-/// change when the points are rotated or reflected: it is the size that scales the extent `φ̄`
-/// of a joint ([`crate::selfcontact::regions::PairRegions::joint_size`]) and of an object
-/// ([`crate::pass::DEFAULT_EXTENT_FACTOR`]).
-///
-/// Exact. Pairs are visited from the points farthest from the centroid inward and skipped by
-/// the triangle inequality (`|p - q| ≤ r_p + r_q` with `r` the distance to the centroid), so
-/// that elongated sets cost about `n log n`; a set whose points all lie at the same distance
-/// from its centroid (a sphere) costs `n² / 2` distances.
-pub fn diameter(points: &[Point3<f64>]) -> f64 {
-    if points.len() < 2 {
-        return 0.0;
-    }
-    if let Some(bad) = points
+/// The size of a surface: √12 times the root mean square distance of its points from its
+/// centroid, both taken over its area (each triangle's exact second moment). A second moment,
+/// so that no rotation or reflection of the surface changes it, no single stray vertex moves it
+/// much, and refining the mesh does not either. It equals the diagonal of a box filled
+/// uniformly (`√(a² + b² + c²)`), and so the diagonal of the axis-aligned bounding box
+/// ([`bbox_diagonal`]) of a sphere (`2√3 r`), of a thin plate or of a thin rod: the size that
+/// scales the extent `φ̄` of a joint
+/// ([`crate::selfcontact::regions::PairRegions::joint_size`]) and of an object
+/// ([`crate::pass::DEFAULT_EXTENT_FACTOR`]), which were box diagonals before, without their
+/// dependence on the orientation the rig is given in. Triangles naming a vertex out of range
+/// are skipped; without area (no triangle, or only degenerate ones) the vertices of the
+/// triangles count equally; 0 without any; not finite when a coordinate is not.
+pub fn surface_size(positions: &[Point3<f64>], triangles: &[[u32; 3]]) -> f64 {
+    let corners: Vec<[Vector3<f64>; 3]> = triangles
         .iter()
-        .flat_map(|p| p.iter())
+        .filter_map(|t| {
+            let [a, b, c] = t.map(|v| positions.get(v as usize).map(|p| p.coords));
+            Some([a?, b?, c?])
+        })
+        .collect();
+    let Some(origin) = corners.first().map(|t| t[0]) else {
+        return 0.0;
+    };
+    if let Some(bad) = corners
+        .iter()
+        .flatten()
+        .flat_map(|v| v.iter())
         .find(|c| !c.is_finite())
     {
         return bad.abs();
     }
-    let centroid = points
-        .iter()
-        .fold(Vector3::zeros(), |s, p| s + p.coords / points.len() as f64);
     // Scaled to the largest offset, so that coordinates near 1e200 do not overflow the squares.
-    let scale = points
+    let scale = corners
         .iter()
-        .map(|p| (p.coords - centroid).amax())
+        .flatten()
+        .map(|v| (v - origin).amax())
         .fold(0.0, f64::max);
-    if scale == 0.0 || !scale.is_finite() {
-        return scale;
+    if scale == 0.0 {
+        return 0.0;
     }
-    let mut offsets: Vec<(f64, Vector3<f64>)> = points
+    let local: Vec<[Vector3<f64>; 3]> = corners
         .iter()
-        .map(|p| {
-            let v = (p.coords - centroid) / scale;
-            (v.norm(), v)
-        })
+        .map(|t| t.map(|v| (v - origin) / scale))
         .collect();
-    offsets.sort_unstable_by(|a, b| b.0.total_cmp(&a.0));
-    let mut best = 0.0_f64;
-    for (i, (ri, vi)) in offsets.iter().enumerate() {
-        if 2.0 * ri <= best {
-            break;
-        }
-        for (rj, vj) in &offsets[i + 1..] {
-            if ri + rj <= best {
-                break;
+    let area = |[a, b, c]: &[Vector3<f64>; 3]| 0.5 * (b - a).cross(&(c - a)).norm();
+    let total: f64 = local.iter().map(area).sum();
+    let weight = |t: &[Vector3<f64>; 3]| if total > 0.0 { area(t) } else { 1.0 };
+    let mass: f64 = local.iter().map(weight).sum();
+    let centroid = local.iter().fold(Vector3::zeros(), |s, t| {
+        s + (t[0] + t[1] + t[2]) * (weight(t) / 3.0)
+    }) / mass;
+    // The mean of |p|² over a triangle: (|a|² + |b|² + |c|² + a·b + b·c + c·a) / 6; over its
+    // corners only (no area): (|a|² + |b|² + |c|²) / 3.
+    let second: f64 = local
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|v| v - centroid);
+            let squares = a.norm_squared() + b.norm_squared() + c.norm_squared();
+            if total > 0.0 {
+                weight(t) * (squares + a.dot(&b) + b.dot(&c) + c.dot(&a)) / 6.0
+            } else {
+                squares / 3.0
             }
-            best = best.max((vi - vj).norm());
-        }
-    }
-    best * scale
+        })
+        .sum::<f64>()
+        / mass;
+    scale * (12.0 * second.max(0.0)).sqrt()
 }
 
 /// Merges points closer than `tol` (in file order: the first point of a cluster represents it).
@@ -292,38 +306,77 @@ mod tests {
         assert_eq!(bbox_diagonal(&q), 5.0);
     }
 
+    /// An icosphere-like closed surface: a UV sphere of radius `r` (poles shared).
+    fn uv_sphere(r: f64, rings: u32, segments: u32) -> (Vec<Point3<f64>>, Vec<[u32; 3]>) {
+        let mut p = vec![Point3::new(0.0, 0.0, r)];
+        for i in 1..rings {
+            let th = std::f64::consts::PI * i as f64 / rings as f64;
+            for j in 0..segments {
+                let ph = std::f64::consts::TAU * j as f64 / segments as f64;
+                p.push(Point3::new(
+                    r * th.sin() * ph.cos(),
+                    r * th.sin() * ph.sin(),
+                    r * th.cos(),
+                ));
+            }
+        }
+        p.push(Point3::new(0.0, 0.0, -r));
+        let south = p.len() as u32 - 1;
+        let at = |i: u32, j: u32| 1 + (i - 1) * segments + j % segments;
+        let mut t = Vec::new();
+        for j in 0..segments {
+            t.push([0, at(1, j), at(1, j + 1)]);
+            t.push([south, at(rings - 1, j + 1), at(rings - 1, j)]);
+            for i in 1..rings - 1 {
+                t.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+                t.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
+            }
+        }
+        (p, t)
+    }
+
     #[test]
-    fn the_diameter_is_the_largest_distance_and_does_not_turn_with_the_points() {
-        // A cube: its space diagonal, whatever the rotation.
-        let cube: Vec<Point3<f64>> = (0..8)
-            .map(|i| Point3::new((i & 1) as f64, (i >> 1 & 1) as f64, (i >> 2 & 1) as f64))
-            .collect();
-        assert!((diameter(&cube) - 3f64.sqrt()).abs() < 1e-15);
+    fn the_surface_size_is_a_box_diagonal_and_does_not_turn_with_the_surface() {
+        // A sphere: 2√3 r (its bounding box's diagonal), to the mesh's chord error.
+        let (p, t) = uv_sphere(2.0, 48, 96);
+        let size = surface_size(&p, &t);
+        assert!((size / (4.0 * 3f64.sqrt()) - 1.0).abs() < 2e-3, "{size}");
+        // A unit square plate (two triangles): its diagonal √2 exactly.
+        let plate = [
+            Point3::new(0.0, 0.0, 0.0),
+            Point3::new(1.0, 0.0, 0.0),
+            Point3::new(1.0, 1.0, 0.0),
+            Point3::new(0.0, 1.0, 0.0),
+        ];
+        let quads = [[0, 1, 2], [0, 2, 3]];
+        assert!((surface_size(&plate, &quads) - 2f64.sqrt()).abs() < 1e-14);
+        // Rotated and reflected, the same; its box diagonal is not.
         let r = nalgebra::Rotation3::from_euler_angles(0.3, 1.1, -0.7);
-        let turned: Vec<Point3<f64>> = cube.iter().map(|p| r * p).collect();
-        assert!((diameter(&turned) - 3f64.sqrt()).abs() < 1e-14);
-        // The box diagonal changes under the same rotation (the reason for the diameter).
-        assert!((bbox_diagonal(&turned) - bbox_diagonal(&cube)).abs() > 0.1);
-        // Against the brute force on a lopsided cloud, including points equidistant from the
-        // centroid (a circle) where the pruning cannot skip anything.
-        let mut cloud: Vec<Point3<f64>> = (0..60)
-            .map(|k| {
-                let a = k as f64 * 0.37;
-                Point3::new(a.cos(), a.sin(), 0.0)
-            })
-            .collect();
-        cloud.extend((0..40).map(|k| Point3::new(0.1 * k as f64, 0.05 * (k * k % 7) as f64, 0.3)));
-        let brute = cloud
-            .iter()
-            .flat_map(|p| cloud.iter().map(move |q| (p - q).norm()))
-            .fold(0.0, f64::max);
-        assert!((diameter(&cloud) - brute).abs() < 1e-14 * brute);
-        assert_eq!(diameter(&cloud[..1]), 0.0);
-        assert_eq!(diameter(&[]), 0.0);
-        let huge = [Point3::new(0.0, 0.0, 0.0), Point3::new(3e200, 4e200, 0.0)];
-        assert!((diameter(&huge) - 5e200).abs() < 1e188);
-        let nan = [Point3::new(0.0, 0.0, 0.0), Point3::new(f64::NAN, 0.0, 0.0)];
-        assert!(diameter(&nan).is_nan());
+        let turned: Vec<Point3<f64>> = p.iter().map(|q| r * q).collect();
+        let mirrored: Vec<Point3<f64>> = p.iter().map(|q| Point3::new(-q.x, q.y, q.z)).collect();
+        assert!((surface_size(&turned, &t) - size).abs() < 1e-13 * size);
+        assert!((surface_size(&mirrored, &t) - size).abs() < 1e-13 * size);
+        let pt: Vec<Point3<f64>> = plate.iter().map(|q| r * q).collect();
+        assert!((surface_size(&pt, &quads) - 2f64.sqrt()).abs() < 1e-14);
+        assert!((bbox_diagonal(&pt) - 2f64.sqrt()).abs() > 0.1);
+        // Refining the mesh barely moves it (an area measure, not a vertex count).
+        let (pf, tf) = uv_sphere(2.0, 96, 192);
+        assert!((surface_size(&pf, &tf) / size - 1.0).abs() < 2e-3);
+        // Degenerate and bad input.
+        assert_eq!(surface_size(&plate, &[]), 0.0);
+        assert_eq!(surface_size(&plate, &[[0, 9, 1]]), 0.0);
+        let line = [Point3::new(0.0, 0.0, 0.0), Point3::new(2.0, 0.0, 0.0)];
+        let flat = surface_size(&line, &[[0, 1, 1]]);
+        assert!(flat.is_finite() && flat > 0.0, "{flat}");
+        let huge = [
+            plate[0],
+            plate[1] * 1e200,
+            plate[2] * 1e200,
+            plate[3] * 1e200,
+        ];
+        assert!((surface_size(&huge, &quads) / 1e200 - 2f64.sqrt()).abs() < 1e-12);
+        let nan = [plate[0], Point3::new(f64::NAN, 0.0, 0.0), plate[2]];
+        assert!(surface_size(&nan, &[[0, 1, 2]]).is_nan());
     }
 
     /// A unit cube with 4 split vertices per face (24 file vertices), outward CCW.

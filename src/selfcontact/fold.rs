@@ -90,7 +90,7 @@ pub const DEFAULT_FOLD_TAU: f64 = -1.0;
 pub const FOLD_EXTENT_FLOOR: f64 = 0.0;
 
 /// Default [`FoldParams::joint_extent`].
-pub const DEFAULT_JOINT_EXTENT: f64 = 2.3;
+pub const DEFAULT_JOINT_EXTENT: f64 = 1.5;
 
 /// Parameters of one fold.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -114,22 +114,23 @@ pub struct FoldParams {
     pub deform: DeformParams,
     /// Crease graph weights.
     pub crease: CreaseParams,
-    /// `φ̄` as a multiple of the joint's size ([`FoldPre::joint_size`], the diameter of its
-    /// shared region at rest); when set it replaces `deform.extent` (scene units). Default 2.3:
+    /// `φ̄` as a multiple of the joint's size ([`FoldPre::joint_size`], a second moment of its
+    /// shared region at rest); when set it replaces `deform.extent` (scene units). Default 1.5:
     /// scale-free, and on the committed rigs the extents the former default gave (1.75 × the
-    /// diagonal of the region's axis-aligned box, which is 1.31-1.35 diameters on the finger's
-    /// and the capsule's tube-like joints: extents within 2.5 %, the same worst-frame metrics;
-    /// the mouth's lip region, 1.05 diameters, gets a 25 % larger extent, same metrics) without
-    /// the box's dependence on the rig's orientation. Measured then: 1.0 and 1.5 box diagonals let the
-    /// object pass's extent floor take over on the capsule's last frames (a pop, ratio 7.9 and
-    /// 4.5; the fold's floor is now 0); 2.0 left up to 9 penetrating vertices on the finger.
-    /// Measured now (`pose --metrics`, two sweeps): 2.0 diameters gives CesiumMan 49 penetrating
-    /// vertices summed over 21 frames and a walk ratio of 6.88 over 61 frames against 54 and
-    /// 7.95, the LBS capsule 5.21 against 5.40 at 76 frames, CoR 145.5 against 137.7, and after
-    /// one sweep leaves a finger vertex 0.31 h inside (`one_sweep_leaves_the_folds_touching`);
-    /// 2.5 gives CesiumMan 59 and 7.35. The former default, 1 scene unit (5 capsule radii,
-    /// 11 finger radii), spread the bulge over whole limbs, mostly tangential there (faceting
-    /// along the capsule), and left the finger 17 penetrating vertices.
+    /// diagonal of the region's axis-aligned box; the second moment is 1.17-1.19 of it on the
+    /// finger's and the capsule's joints, 1.11 on the mouth's: extents within 5 %) without the
+    /// box's dependence on the rig's orientation. Measured (`pose --metrics`, two sweeps,
+    /// against the former default in the same session): LBS capsule ratios 1.70 and 5.42 at 31
+    /// and 76 frames (1.69, 5.39), CoR 22.47 and 140.8 (22.45, 137.7), DQS the same, finger and
+    /// mouth the same, CesiumMan 52 penetrating vertices over 21 frames (49) and a walk ratio
+    /// of 7.05 (7.31). Measured with box diagonals: 1.0 and 1.5 let the object pass's extent
+    /// floor take over on the capsule's last frames (a pop, ratio 7.9 and 4.5; the fold's floor
+    /// is now 0); 2.0 left up to 9 penetrating vertices on the finger. Rotation-invariant sizes
+    /// tried: the region's diameter, with 2.3 × it (the committed rigs' extents) CesiumMan 54
+    /// and 7.95, with 2.0 49 and 6.88 but a finger vertex 0.31 h inside after one sweep. The
+    /// former default, 1 scene unit (5 capsule radii, 11 finger radii), spread the bulge over
+    /// whole limbs, mostly tangential there (faceting along the capsule), and left the finger
+    /// 17 penetrating vertices.
     pub joint_extent: Option<f64>,
     /// Scale the blended displacement back where it would turn a face over (against both its
     /// input normal and the skinning's; [`super::turn_guard`]; needs
@@ -190,8 +191,7 @@ pub struct FoldPre {
     topology: CreaseTopology,
     /// Neighbours of each local vertex of `shared` (local ids).
     shared_adjacency: Vec<Vec<u32>>,
-    /// The joint's size: the diameter of the shared region at rest
-    /// ([`PairRegions::joint_size`]).
+    /// The joint's size at rest ([`PairRegions::joint_size`]).
     pub joint_size: f64,
 }
 
@@ -289,16 +289,7 @@ impl FoldPre {
         let n = rest.len();
         let w1 = WorkingRegion::new(triangles, regions.w1_faces.iter().copied(), n)?;
         let w2 = WorkingRegion::new(triangles, regions.w2_faces.iter().copied(), n)?;
-        let in_r = |f: &u32| {
-            triangles[*f as usize]
-                .iter()
-                .all(|&v| regions.w1[v as usize] && regions.w2[v as usize])
-        };
-        let shared = WorkingRegion::new(
-            triangles,
-            regions.w1_faces.iter().filter(|f| in_r(f)).copied(),
-            n,
-        )?;
+        let shared = WorkingRegion::new(triangles, regions.shared_faces(triangles), n)?;
         let mut faces: Vec<u32> = regions
             .w1_faces
             .iter()
@@ -316,7 +307,7 @@ impl FoldPre {
         let winding =
             crate::report::metrics::WindingNumber::with_beta(rest, triangles, INSIDE_BETA);
         let topology = CreaseTopology::new(triangles, &faces, &regions.w1, &regions.w2);
-        let joint_size = regions.joint_size(rest);
+        let joint_size = regions.joint_size(rest, triangles);
         let shared_adjacency = shared.solver.region.adjacency();
         Ok(Self {
             joint_size,
@@ -349,8 +340,8 @@ impl FoldPre {
     /// Whether the shared region is posed smaller than [`crate::pass::COLLAPSED`] times its
     /// rest size (a joint scaled to 0): such a fold is not resolved (nothing to resolve at that
     /// size, and all its faces overlap each other). The posed size is the diagonal of the
-    /// region's bounding box, which is cheaper than its diameter and lies between 1 and √3
-    /// diameters: a guard at 1e-6 does not see the difference.
+    /// region's bounding box, cheaper than the joint's size and within a small factor of it
+    /// whatever the orientation: a guard at 1e-6 does not see the difference.
     pub fn collapsed(&self, positions: &[Point3<f64>]) -> bool {
         let points: Vec<Point3<f64>> = self
             .regions

@@ -92,20 +92,38 @@ pub struct PairRegions {
 }
 
 impl PairRegions {
-    /// The joint's size: the diameter of the shared region `R` at `rest` (the largest distance
-    /// between two of its vertices; the unit of
-    /// [`crate::selfcontact::fold::FoldParams::joint_extent`]). A distance, so that the size,
-    /// and the fold's extent with it, do not depend on the orientation the rig is given in
-    /// (the diagonal of an axis-aligned box, the former size, lies between 1 and √3 diameters
-    /// as the orientation goes: with it the finger rotated by 1 rad came out 0.15 h away from
-    /// the finger's output rotated, 1.9e-2 h now; `a_fold_and_its_mirror_image_agree`).
-    pub fn joint_size(&self, rest: &[Point3<f64>]) -> f64 {
-        let points: Vec<Point3<f64>> = self
-            .shared
+    /// The joint's size: [`crate::mesh::surface_size`] of the shared region `R` (the faces of
+    /// `W1` whose corners are all in `R`) at `rest`, the unit of
+    /// [`crate::selfcontact::fold::FoldParams::joint_extent`]. A second moment of the surface,
+    /// so that the size, and the fold's extent with it, do not depend on the orientation the
+    /// rig is given in: with the diagonal of the region's axis-aligned box, the former size,
+    /// the finger rotated by 1 rad came out 0.15 h away from the finger's output rotated
+    /// (`a_fold_and_its_mirror_image_agree`).
+    pub fn joint_size(&self, rest: &[Point3<f64>], triangles: &[[u32; 3]]) -> f64 {
+        let shared: Vec<[u32; 3]> = self
+            .shared_faces(triangles)
             .iter()
-            .filter_map(|&v| rest.get(v as usize).copied())
+            .map(|&f| triangles[f as usize])
             .collect();
-        crate::mesh::diameter(&points)
+        crate::mesh::surface_size(rest, &shared)
+    }
+
+    /// The faces of the shared region `R` (ascending): the faces of `W1` whose corners all lie
+    /// in both working regions (faces out of `triangles`' range are left out).
+    pub fn shared_faces(&self, triangles: &[[u32; 3]]) -> Vec<u32> {
+        let in_both = |v: u32| {
+            let v = v as usize;
+            self.w1.get(v).copied().unwrap_or(false) && self.w2.get(v).copied().unwrap_or(false)
+        };
+        self.w1_faces
+            .iter()
+            .filter(|&&f| {
+                triangles
+                    .get(f as usize)
+                    .is_some_and(|t| t.iter().all(|&v| in_both(v)))
+            })
+            .copied()
+            .collect()
     }
 }
 
