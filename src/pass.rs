@@ -24,14 +24,13 @@ use std::time::Instant;
 pub type RestBody<'a> = (&'a [Point3<f64>], &'a [[u32; 3]]);
 
 /// Default `φ̄` as a fraction of the object's rest size ([`crate::mesh::surface_size`]): one
-/// half. The size was the diagonal of the object's axis-aligned rest bounding box until
-/// 2026-12-02, which a rotation of the rig changes; the surface's second moment equals it on a
-/// sphere and, on the committed object scenes, within 0.3 % on the balls, 2 % on the capsules,
-/// 7 % on the fingertips and 11 % on the slab, whose results stay as they were (the rotated
-/// scenes give the rotated results to round-off: `rotating_the_rig_rotates_the_result`). A
-/// default based on the diameter, which is rotation-invariant too, could not follow both round
-/// and long objects: half a diameter let the sphere on the slab keep up to 38 penetrating
-/// vertices, √3/2 of one made the fingertips' frames 45 % slower.
+/// half, as when the size was the diagonal of the object's axis-aligned rest bounding box
+/// (until 2026-12-02; a rotation of the rig changed it). On the committed object scenes the
+/// two sizes agree to 0.3 % (balls), 2 % (capsules), 7 % (fingertips) and 11 % (the slab), and
+/// the scenes' metrics are those of the former default. A diameter-based default, also
+/// rotation-invariant, fitted either round or long objects, not both (half a diameter let the
+/// sphere on the slab keep 38 penetrating vertices; √3/2 of one made the fingertips 45 %
+/// slower).
 pub const DEFAULT_EXTENT_FACTOR: f64 = 0.5;
 
 /// Default number of passes per frame (see [`ContactPass::with_passes`]).
@@ -181,8 +180,9 @@ struct PassBody {
     rest_diagonal: f64,
 }
 
-/// A body posed smaller than this fraction of its rest size (a bone or the whole rig scaled to
-/// 0, a common way to hide a part) takes no part in contacts that frame: there is nothing to
+/// A body posed smaller than this fraction of its rest bounding-box diagonal (a bone or the
+/// whole rig scaled to 0, a common way to hide a part) takes no part in contacts that frame:
+/// there is nothing to
 /// resolve at that size, and every face of it overlaps every other (measured: two collapsed
 /// 3322-vertex capsules took over three minutes per frame).
 pub const COLLAPSED: f64 = 1e-6;
@@ -493,7 +493,7 @@ impl ContactPass {
         Ok(out)
     }
 
-    /// Whether body `b`, as posed, is at least [`COLLAPSED`] times its rest size.
+    /// Whether body `b`, as posed, is at least [`COLLAPSED`] times its rest bounding-box diagonal.
     fn in_size(&self, b: usize, posed: &crate::intersect::PosedMesh) -> bool {
         let Some(rest) = self.bodies.get(b).map(|body| body.rest_diagonal) else {
             return false;

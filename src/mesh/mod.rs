@@ -126,16 +126,20 @@ pub fn bbox_diagonal(points: &[Point3<f64>]) -> f64 {
 
 /// The size of a surface: √12 times the root mean square distance of its points from its
 /// centroid, both taken over its area (each triangle's exact second moment). A second moment,
-/// so that no rotation or reflection of the surface changes it, no single stray vertex moves it
-/// much, and refining the mesh does not either. It equals the diagonal of a box filled
-/// uniformly (`√(a² + b² + c²)`), and so the diagonal of the axis-aligned bounding box
-/// ([`bbox_diagonal`]) of a sphere (`2√3 r`), of a thin plate or of a thin rod: the size that
-/// scales the extent `φ̄` of a joint
+/// so that no rotation or reflection of the surface changes it, and refining the mesh or
+/// splitting its vertices does not either. √12 makes it the length of a thin rod, the diagonal
+/// of a thin rectangular plate and the diagonal of a sphere's bounding box (`2√3 r`); a closed
+/// box's surface measures more than its diagonal (`√5 a` for a cube of side `a`, against
+/// `√3 a`). It is the size that scales the extent `φ̄` of a joint
 /// ([`crate::selfcontact::regions::PairRegions::joint_size`]) and of an object
-/// ([`crate::pass::DEFAULT_EXTENT_FACTOR`]), which were box diagonals before, without their
-/// dependence on the orientation the rig is given in. Triangles naming a vertex out of range
-/// are skipped; without area (no triangle, or only degenerate ones) the vertices of the
-/// triangles count equally; 0 without any; not finite when a coordinate is not.
+/// ([`crate::pass::DEFAULT_EXTENT_FACTOR`]), which were axis-aligned bounding-box diagonals
+/// before, without their dependence on the orientation the rig is given in. Like any second
+/// moment it weighs far material by its squared distance: a small triangle far away moves it
+/// (though less than it moves a bounding box).
+///
+/// Triangles naming a vertex out of range are skipped; without area (no triangle, or only
+/// degenerate ones) each triangle's corners count equally instead; 0 without any triangle;
+/// not finite when a coordinate is not.
 pub fn surface_size(positions: &[Point3<f64>], triangles: &[[u32; 3]]) -> f64 {
     let corners: Vec<[Vector3<f64>; 3]> = triangles
         .iter()
@@ -144,9 +148,6 @@ pub fn surface_size(positions: &[Point3<f64>], triangles: &[[u32; 3]]) -> f64 {
             Some([a?, b?, c?])
         })
         .collect();
-    let Some(origin) = corners.first().map(|t| t[0]) else {
-        return 0.0;
-    };
     if let Some(bad) = corners
         .iter()
         .flatten()
@@ -155,42 +156,52 @@ pub fn surface_size(positions: &[Point3<f64>], triangles: &[[u32; 3]]) -> f64 {
     {
         return bad.abs();
     }
-    // Scaled to the largest offset, so that coordinates near 1e200 do not overflow the squares.
+    // Scaled to the largest coordinate first, so that neither the differences of coordinates
+    // near ±1e308 nor the squares of coordinates near 1e200 overflow.
     let scale = corners
         .iter()
         .flatten()
-        .map(|v| (v - origin).amax())
+        .map(|v| v.amax())
         .fold(0.0, f64::max);
     if scale == 0.0 {
         return 0.0;
     }
-    let local: Vec<[Vector3<f64>; 3]> = corners
+    let local: Vec<[Vector3<f64>; 3]> = corners.iter().map(|t| t.map(|v| v / scale)).collect();
+    let areas: Vec<f64> = local
         .iter()
-        .map(|t| t.map(|v| (v - origin) / scale))
+        .map(|[a, b, c]| 0.5 * (b - a).cross(&(c - a)).norm())
         .collect();
-    let area = |[a, b, c]: &[Vector3<f64>; 3]| 0.5 * (b - a).cross(&(c - a)).norm();
-    let total: f64 = local.iter().map(area).sum();
-    let weight = |t: &[Vector3<f64>; 3]| if total > 0.0 { area(t) } else { 1.0 };
-    let mass: f64 = local.iter().map(weight).sum();
-    let centroid = local.iter().fold(Vector3::zeros(), |s, t| {
-        s + (t[0] + t[1] + t[2]) * (weight(t) / 3.0)
-    }) / mass;
-    // The mean of |p|² over a triangle: (|a|² + |b|² + |c|² + a·b + b·c + c·a) / 6; over its
-    // corners only (no area): (|a|² + |b|² + |c|²) / 3.
+    let total: f64 = areas.iter().sum();
+    let weights = if total > 0.0 {
+        areas
+    } else {
+        vec![1.0; local.len()]
+    };
+    let mass: f64 = weights.iter().sum();
+    let centroid = local
+        .iter()
+        .zip(&weights)
+        .fold(Vector3::zeros(), |s, (t, w)| {
+            s + (t[0] + t[1] + t[2]) * (w / 3.0)
+        })
+        / mass;
+    // The mean of |p|² over a triangle is (|a|² + |b|² + |c|² + |a + b + c|²) / 12; over its
+    // corners alone (no area), (|a|² + |b|² + |c|²) / 3.
     let second: f64 = local
         .iter()
-        .map(|t| {
+        .zip(&weights)
+        .map(|(t, w)| {
             let [a, b, c] = t.map(|v| v - centroid);
             let squares = a.norm_squared() + b.norm_squared() + c.norm_squared();
             if total > 0.0 {
-                weight(t) * (squares + a.dot(&b) + b.dot(&c) + c.dot(&a)) / 6.0
+                w * (squares + (a + b + c).norm_squared()) / 12.0
             } else {
-                squares / 3.0
+                w * squares / 3.0
             }
         })
         .sum::<f64>()
         / mass;
-    scale * (12.0 * second.max(0.0)).sqrt()
+    scale * (12.0 * second).sqrt()
 }
 
 /// Merges points closer than `tol` (in file order: the first point of a cluster represents it).
@@ -336,7 +347,7 @@ mod tests {
     }
 
     #[test]
-    fn the_surface_size_is_a_box_diagonal_and_does_not_turn_with_the_surface() {
+    fn the_surface_size_is_a_second_moment_that_does_not_turn_with_the_surface() {
         // A sphere: 2√3 r (its bounding box's diagonal), to the mesh's chord error.
         let (p, t) = uv_sphere(2.0, 48, 96);
         let size = surface_size(&p, &t);
@@ -350,7 +361,10 @@ mod tests {
         ];
         let quads = [[0, 1, 2], [0, 2, 3]];
         assert!((surface_size(&plate, &quads) - 2f64.sqrt()).abs() < 1e-14);
-        // Rotated and reflected, the same; its box diagonal is not.
+        // A unit cube's surface (split corners, as glTF files have them): √5, not √3.
+        let (cube, cube_t) = split_cube();
+        assert!((surface_size(&cube, &cube_t) - 5f64.sqrt()).abs() < 1e-14);
+        // Rotated and reflected, the same; the box diagonal is not.
         let r = nalgebra::Rotation3::from_euler_angles(0.3, 1.1, -0.7);
         let turned: Vec<Point3<f64>> = p.iter().map(|q| r * q).collect();
         let mirrored: Vec<Point3<f64>> = p.iter().map(|q| Point3::new(-q.x, q.y, q.z)).collect();
@@ -362,12 +376,17 @@ mod tests {
         // Refining the mesh barely moves it (an area measure, not a vertex count).
         let (pf, tf) = uv_sphere(2.0, 96, 192);
         assert!((surface_size(&pf, &tf) / size - 1.0).abs() < 2e-3);
-        // Degenerate and bad input.
+        // Degenerate and bad input. Without area the corners count: a segment of length 2 as
+        // the triangle (0, 1, 1) has corners 0, 2, 2, whose RMS distance from their mean is
+        // √(8/9) and size √12 × that.
         assert_eq!(surface_size(&plate, &[]), 0.0);
         assert_eq!(surface_size(&plate, &[[0, 9, 1]]), 0.0);
         let line = [Point3::new(0.0, 0.0, 0.0), Point3::new(2.0, 0.0, 0.0)];
         let flat = surface_size(&line, &[[0, 1, 1]]);
-        assert!(flat.is_finite() && flat > 0.0, "{flat}");
+        assert!(
+            (flat - (12.0f64 * 8.0 / 9.0).sqrt()).abs() < 1e-14,
+            "{flat}"
+        );
         let huge = [
             plate[0],
             plate[1] * 1e200,
@@ -375,8 +394,14 @@ mod tests {
             plate[3] * 1e200,
         ];
         assert!((surface_size(&huge, &quads) / 1e200 - 2f64.sqrt()).abs() < 1e-12);
+        let far = |x: f64, y: f64| Point3::new(x, y, 0.0);
+        let opposite = [far(-1e308, 0.0), far(1e308, 0.0), far(0.0, 1e308)];
+        let s = surface_size(&opposite, &[[0, 1, 2]]);
+        assert!(s.is_finite() && s > 1e308, "{s}");
         let nan = [plate[0], Point3::new(f64::NAN, 0.0, 0.0), plate[2]];
         assert!(surface_size(&nan, &[[0, 1, 2]]).is_nan());
+        let inf = [plate[0], Point3::new(f64::INFINITY, 0.0, 0.0), plate[2]];
+        assert_eq!(surface_size(&inf, &[[0, 1, 2]]), f64::INFINITY);
     }
 
     /// A unit cube with 4 split vertices per face (24 file vertices), outward CCW.

@@ -116,21 +116,17 @@ pub struct FoldParams {
     pub crease: CreaseParams,
     /// `φ̄` as a multiple of the joint's size ([`FoldPre::joint_size`], a second moment of its
     /// shared region at rest); when set it replaces `deform.extent` (scene units). Default 1.5:
-    /// scale-free, and on the committed rigs the extents the former default gave (1.75 × the
-    /// diagonal of the region's axis-aligned box; the second moment is 1.17-1.19 of it on the
-    /// finger's and the capsule's joints, 1.11 on the mouth's: extents within 5 %) without the
-    /// box's dependence on the rig's orientation. Measured (`pose --metrics`, two sweeps,
-    /// against the former default in the same session): LBS capsule ratios 1.70 and 5.42 at 31
-    /// and 76 frames (1.69, 5.39), CoR 22.47 and 140.8 (22.45, 137.7), DQS the same, finger and
-    /// mouth the same, CesiumMan 52 penetrating vertices over 21 frames (49) and a walk ratio
-    /// of 7.05 (7.31). Measured with box diagonals: 1.0 and 1.5 let the object pass's extent
-    /// floor take over on the capsule's last frames (a pop, ratio 7.9 and 4.5; the fold's floor
-    /// is now 0); 2.0 left up to 9 penetrating vertices on the finger. Rotation-invariant sizes
-    /// tried: the region's diameter, with 2.3 × it (the committed rigs' extents) CesiumMan 54
-    /// and 7.95, with 2.0 49 and 6.88 but a finger vertex 0.31 h inside after one sweep. The
-    /// former default, 1 scene unit (5 capsule radii, 11 finger radii), spread the bulge over
-    /// whole limbs, mostly tangential there (faceting along the capsule), and left the finger
-    /// 17 penetrating vertices.
+    /// scale-free, and on the committed rigs the extents of the former default, 1.75 × the
+    /// diagonal of the region's axis-aligned rest box (the second moment is 1.16-1.19 of it on
+    /// the finger's and the capsule's joints, 1.11 on the mouth's), without the box's
+    /// dependence on the rig's orientation. Measured against the former default (`pose
+    /// --metrics`, two sweeps): LBS capsule ratios 1.70 and 5.42 at 31 and 76 frames (1.69,
+    /// 5.39), CoR 22.47 and 140.8 (22.45, 137.7), DQS, finger and mouth the same, CesiumMan
+    /// 52 penetrating vertices over 21 frames (49) and a walk ratio of 7.05 (7.31). With box
+    /// diagonals, 1.0 and 1.5 let the object pass's extent floor take over on the capsule's
+    /// last frames (a pop, ratio 7.9 and 4.5; the fold's floor is now 0) and 2.0 left up to 9
+    /// penetrating vertices on the finger; 1 scene unit, the first default (5 capsule radii,
+    /// 11 finger radii), spread the bulge over whole limbs and left the finger 17.
     pub joint_extent: Option<f64>,
     /// Scale the blended displacement back where it would turn a face over (against both its
     /// input normal and the skinning's; [`super::turn_guard`]; needs
@@ -193,6 +189,8 @@ pub struct FoldPre {
     shared_adjacency: Vec<Vec<u32>>,
     /// The joint's size at rest ([`PairRegions::joint_size`]).
     pub joint_size: f64,
+    /// The diagonal of the shared region's bounding box at rest ([`FoldPre::collapsed`]).
+    rest_box: f64,
 }
 
 /// Time per step of one fold, in seconds.
@@ -289,7 +287,7 @@ impl FoldPre {
         let n = rest.len();
         let w1 = WorkingRegion::new(triangles, regions.w1_faces.iter().copied(), n)?;
         let w2 = WorkingRegion::new(triangles, regions.w2_faces.iter().copied(), n)?;
-        let shared = WorkingRegion::new(triangles, regions.shared_faces(triangles), n)?;
+        let shared = WorkingRegion::new(triangles, regions.shared_faces.iter().copied(), n)?;
         let mut faces: Vec<u32> = regions
             .w1_faces
             .iter()
@@ -308,9 +306,11 @@ impl FoldPre {
             crate::report::metrics::WindingNumber::with_beta(rest, triangles, INSIDE_BETA);
         let topology = CreaseTopology::new(triangles, &faces, &regions.w1, &regions.w2);
         let joint_size = regions.joint_size(rest, triangles);
+        let rest_box = regions.box_diagonal(rest);
         let shared_adjacency = shared.solver.region.adjacency();
         Ok(Self {
             joint_size,
+            rest_box,
             regions,
             w1,
             w2,
@@ -339,21 +339,15 @@ pub struct Detection {
 impl FoldPre {
     /// Whether the shared region is posed smaller than [`crate::pass::COLLAPSED`] times its
     /// rest size (a joint scaled to 0): such a fold is not resolved (nothing to resolve at that
-    /// size, and all its faces overlap each other). The posed size is the diagonal of the
-    /// region's bounding box, cheaper than the joint's size and within a small factor of it
-    /// whatever the orientation: a guard at 1e-6 does not see the difference.
+    /// size, and all its faces overlap each other). Sizes here are the diagonals of the
+    /// region's bounding box, posed and at rest (cheaper than the joint's size, and a guard
+    /// at 1e-6 does not see the orientation's factor of at most √3).
     pub fn collapsed(&self, positions: &[Point3<f64>]) -> bool {
-        let points: Vec<Point3<f64>> = self
-            .regions
-            .shared
-            .iter()
-            .filter_map(|&v| positions.get(v as usize).copied())
-            .collect();
-        let size = crate::mesh::bbox_diagonal(&points);
+        let size = self.regions.box_diagonal(positions);
         // NaN counts as collapsed (no size to resolve a fold at).
         self.regions.shared.is_empty()
             || size.is_nan()
-            || size < crate::pass::COLLAPSED * self.joint_size
+            || size < crate::pass::COLLAPSED * self.rest_box
     }
 
     /// Detection with the rest partition: `None` when the fold does not intersect itself at

@@ -78,6 +78,9 @@ pub struct PairRegions {
     pub w2: Vec<bool>,
     /// Welded vertices of the shared region `R = W1 ∩ W2` (ascending).
     pub shared: Vec<u32>,
+    /// Welded faces of `R`: the faces of `W1` whose corners all lie in `W2` too (ascending;
+    /// may be empty where `R` is a ring of vertices between the two regions' faces).
+    pub shared_faces: Vec<u32>,
     /// Per welded vertex: the partition of unity `β` (1 on `W1 \ R`, 0 on `W2 \ R`, harmonic
     /// on `R`; 0 outside both regions).
     pub beta: Vec<f64>,
@@ -92,38 +95,35 @@ pub struct PairRegions {
 }
 
 impl PairRegions {
-    /// The joint's size: [`crate::mesh::surface_size`] of the shared region `R` (the faces of
-    /// `W1` whose corners are all in `R`) at `rest`, the unit of
-    /// [`crate::selfcontact::fold::FoldParams::joint_extent`]. A second moment of the surface,
-    /// so that the size, and the fold's extent with it, do not depend on the orientation the
-    /// rig is given in: with the diagonal of the region's axis-aligned box, the former size,
-    /// the finger rotated by 1 rad came out 0.15 h away from the finger's output rotated
-    /// (`a_fold_and_its_mirror_image_agree`).
+    /// The joint's size: [`crate::mesh::surface_size`] of the shared region `R`'s faces at
+    /// `rest`, the unit of [`crate::selfcontact::fold::FoldParams::joint_extent`]; where `R`
+    /// has no area (no face, or only degenerate ones), the diagonal of its vertices' bounding
+    /// box. A second moment of the surface, so that the size, and the fold's extent with it,
+    /// do not depend on the orientation the rig is given in (with the box diagonal, the former
+    /// size, the finger rotated by 1 rad came out 0.15 h away from its output rotated;
+    /// `a_fold_and_its_mirror_image_agree`).
     pub fn joint_size(&self, rest: &[Point3<f64>], triangles: &[[u32; 3]]) -> f64 {
-        let shared: Vec<[u32; 3]> = self
-            .shared_faces(triangles)
+        let faces: Vec<[u32; 3]> = self
+            .shared_faces
             .iter()
-            .map(|&f| triangles[f as usize])
+            .filter_map(|&f| triangles.get(f as usize).copied())
             .collect();
-        crate::mesh::surface_size(rest, &shared)
+        let size = crate::mesh::surface_size(rest, &faces);
+        if size > 0.0 || size.is_nan() {
+            return size;
+        }
+        self.box_diagonal(rest)
     }
 
-    /// The faces of the shared region `R` (ascending): the faces of `W1` whose corners all lie
-    /// in both working regions (faces out of `triangles`' range are left out).
-    pub fn shared_faces(&self, triangles: &[[u32; 3]]) -> Vec<u32> {
-        let in_both = |v: u32| {
-            let v = v as usize;
-            self.w1.get(v).copied().unwrap_or(false) && self.w2.get(v).copied().unwrap_or(false)
-        };
-        self.w1_faces
+    /// The diagonal of the bounding box of `R`'s vertices at `positions` (the posed size that
+    /// [`crate::selfcontact::fold::FoldPre::collapsed`] compares with the rest one).
+    pub fn box_diagonal(&self, positions: &[Point3<f64>]) -> f64 {
+        let points: Vec<Point3<f64>> = self
+            .shared
             .iter()
-            .filter(|&&f| {
-                triangles
-                    .get(f as usize)
-                    .is_some_and(|t| t.iter().all(|&v| in_both(v)))
-            })
-            .copied()
-            .collect()
+            .filter_map(|&v| positions.get(v as usize).copied())
+            .collect();
+        crate::mesh::bbox_diagonal(&points)
     }
 }
 
@@ -466,6 +466,11 @@ fn grown_pair(
     if shared.is_empty() {
         return Ok(None);
     }
+    let shared_faces: Vec<u32> = w1_faces
+        .iter()
+        .filter(|&&f| mesh.triangles[f as usize].iter().all(|&v| w2[v as usize]))
+        .copied()
+        .collect();
     let (beta, partition) =
         partition_with_adjacency(&src.rest, &mesh.triangles, &src.adjacency, &w1, &w2)
             .map_err(|e| e.for_pair(&seeded.pair.name))?;
@@ -476,6 +481,7 @@ fn grown_pair(
         w1,
         w2,
         shared,
+        shared_faces,
         beta,
         partition,
         grow_rings: options.grow_rings,
