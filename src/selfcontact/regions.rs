@@ -620,3 +620,54 @@ fn as_faces(triangles: &[[u32; 3]], set: &[bool]) -> (Vec<u32>, Vec<bool>) {
     }
     (faces, vertices)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two triangles sharing an edge: `W1` the first, `W2` the second, `R` their shared edge.
+    fn two_triangles(shared_faces: Vec<u32>) -> (PairRegions, Vec<Point3<f64>>, Vec<[u32; 3]>) {
+        let rest = vec![
+            Point3::new(0.0, 0.0, 0.0),
+            Point3::new(3.0, 0.0, 0.0),
+            Point3::new(0.0, 4.0, 0.0),
+            Point3::new(3.0, 4.0, 0.0),
+        ];
+        let triangles = vec![[0, 1, 2], [1, 3, 2]];
+        let regions = PairRegions {
+            pair: JointPair {
+                body: 0,
+                parent_joint: 0,
+                child_joint: 1,
+                bone_end: None,
+                name: "test/a-b".into(),
+            },
+            w1_faces: vec![0],
+            w2_faces: vec![1],
+            w1: vec![true, true, true, false],
+            w2: vec![false, true, true, true],
+            shared: vec![1, 2],
+            shared_faces,
+            beta: vec![1.0, 0.5, 0.5, 0.0],
+            partition: PartitionStats::default(),
+            grow_rings: 0,
+            reason: String::new(),
+        };
+        (regions, rest, triangles)
+    }
+
+    /// A shared region with faces is sized by their second moment; one without area (here an
+    /// edge between the two regions' faces) by its vertices' box diagonal, never 0 (a zero size
+    /// would give the fold a zero extent).
+    #[test]
+    fn a_joint_without_shared_area_is_sized_by_its_box() {
+        let (with_area, rest, triangles) = two_triangles(vec![0]);
+        let size = with_area.joint_size(&rest, &triangles);
+        let expected = crate::mesh::surface_size(&rest, &triangles[..1]);
+        assert!(size > 0.0 && (size - expected).abs() < 1e-15, "{size}");
+        let (edge_only, rest, triangles) = two_triangles(vec![]);
+        assert_eq!(edge_only.joint_size(&rest, &triangles), 5.0);
+        let (out_of_range, rest, triangles) = two_triangles(vec![7]);
+        assert_eq!(out_of_range.joint_size(&rest, &triangles), 5.0);
+    }
+}
