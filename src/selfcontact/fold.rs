@@ -122,7 +122,7 @@ pub struct FoldParams {
     /// dependence on the rig's orientation. Measured against the former default (`pose
     /// --metrics`, two sweeps): LBS capsule ratios 1.70 and 5.42 at 31 and 76 frames (1.69,
     /// 5.39), CoR 22.47 and 140.8 (22.45, 137.7), DQS, finger and mouth the same, CesiumMan
-    /// 52 penetrating vertices over 21 frames (49) and a walk ratio of 7.05 (7.31). With box
+    /// 53 penetrating vertices over 21 frames (49) and a walk ratio of 7.05 (7.31). With box
     /// diagonals, 1.0 and 1.5 let the object pass's extent floor take over on the capsule's
     /// last frames (a pop, ratio 7.9 and 4.5; the fold's floor is now 0) and 2.0 left up to 9
     /// penetrating vertices on the finger; 1 scene unit, the first default (5 capsule radii,
