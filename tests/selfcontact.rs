@@ -633,7 +633,7 @@ fn reflection(n: Vector3<f64>) -> Matrix4<f64> {
 /// and, for a reflection, every triangle's winding reversed (normals stay outward). Its
 /// animations are not mapped (a reflection has no translation-rotation-scale form): it is
 /// posed with the original's world matrices conjugated.
-fn mirrored(rig: &rig::Rig, s: &Matrix4<f64>) -> rig::Rig {
+fn mapped_rig(rig: &rig::Rig, s: &Matrix4<f64>) -> rig::Rig {
     let inverse = s.transpose();
     let mut m = rig.clone();
     for node in &mut m.nodes {
@@ -660,7 +660,7 @@ fn mirrored(rig: &rig::Rig, s: &Matrix4<f64>) -> rig::Rig {
 }
 
 /// Every body's points mapped by `s` (a reflection or a rotation).
-fn reflect(s: &Matrix4<f64>, bodies: &[Vec<Point3<f64>>]) -> Vec<Vec<Point3<f64>>> {
+fn map_points(s: &Matrix4<f64>, bodies: &[Vec<Point3<f64>>]) -> Vec<Vec<Point3<f64>>> {
     bodies
         .iter()
         .map(|b| b.iter().map(|p| s.transform_point(p)).collect())
@@ -704,7 +704,7 @@ fn a_fold_and_its_mirror_image_agree() {
             .into_iter()
             .zip(bounds)
         {
-            let (worst, moved) = mirror_run(name, &s);
+            let (worst, moved) = mapped_run(name, &s);
             println!(
                 "{name}, {label}: vertices moved by up to {moved:.2} h, images differ by \
                  {worst:.1e} h"
@@ -721,10 +721,10 @@ fn a_fold_and_its_mirror_image_agree() {
 /// Runs `name`'s 31 frames (one sweep) and their images under `s` (a reflection or a
 /// rotation): the largest difference between the output mapped by `s` and the image's output,
 /// and the largest displacement, both in edge lengths.
-fn mirror_run(name: &str, s: &Matrix4<f64>) -> (f64, f64) {
+fn mapped_run(name: &str, s: &Matrix4<f64>) -> (f64, f64) {
     let l = load(name, 31);
     let pass = self_pass(&l, &[]).with_passes(1);
-    let m_rig = mirrored(&l.rig, s);
+    let m_rig = mapped_rig(&l.rig, s);
     let m_pre = contact_skin::frames::Precomputed::new(&m_rig, Method::Lbs);
     assert_eq!(
         m_pre.welded[0].to_welded, l.pre.welded[0].to_welded,
@@ -732,8 +732,8 @@ fn mirror_run(name: &str, s: &Matrix4<f64>) -> (f64, f64) {
     );
     let rest = welded_positions(&l.rig, &l.pre, 0.0, None);
     let (o, p) = (RegionOptions::default(), FoldParams::default());
-    let m_pass = SelfContactPass::new(&m_rig, &m_pre.welded, &reflect(s, &rest), &o, p, &[])
-        .expect("mirrored pass precomputes")
+    let m_pass = SelfContactPass::new(&m_rig, &m_pre.welded, &map_points(s, &rest), &o, p, &[])
+        .expect("mapped pass precomputes")
         .with_passes(1);
     let names = |r: &SelfPassOutput| -> Vec<String> {
         r.folds.iter().map(|fold| fold.name.clone()).collect()
@@ -745,19 +745,19 @@ fn mirror_run(name: &str, s: &Matrix4<f64>) -> (f64, f64) {
         let m_pose = rig::Pose {
             world: pose.world.iter().map(|w| s * w * s.transpose()).collect(),
         };
-        // The mirrored rig skinned at the mirrored pose is the mirrored input.
+        // The mapped rig skinned at the mapped pose is the mapped input.
         let m_input =
             contact_skin::frames::evaluate_pose(&m_rig, &m_pre, &m_pose, f, 0.0).welded(&m_pre);
-        let skinned = max_distance(&m_input[0], &reflect(s, &input)[0]) / l.h_rest;
+        let skinned = max_distance(&m_input[0], &map_points(s, &input)[0]) / l.h_rest;
         assert!(skinned < 1e-9, "{name} frame {f}: skinning {skinned:e} h");
         let mut out = input.clone();
         let res = pass.run(&l.rig, &pose, &mut out).expect("pass runs");
         let mut m_out = m_input;
         let m_res = m_pass
             .run(&m_rig, &m_pose, &mut m_out)
-            .expect("mirror runs");
+            .expect("mapped pass runs");
         assert_eq!(names(&res), names(&m_res), "{name} frame {f}: folds");
-        worst = worst.max(max_distance(&reflect(s, &out)[0], &m_out[0]) / l.h_rest);
+        worst = worst.max(max_distance(&map_points(s, &out)[0], &m_out[0]) / l.h_rest);
         moved = moved.max(max_distance(&out[0], &input[0]) / l.h_rest);
     }
     (worst, moved)

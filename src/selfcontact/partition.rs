@@ -74,6 +74,17 @@ pub fn partition_of_unity_with_stats(
     partition_with_adjacency(positions_rest, triangles, &adjacency, w1, w2)
 }
 
+/// The faces whose three corners are all `inside` (ascending ids): with `inside` the vertices
+/// of both working regions, the faces of the shared region `R`.
+pub(super) fn faces_within(triangles: &[[u32; 3]], inside: &[bool]) -> Vec<u32> {
+    triangles
+        .iter()
+        .enumerate()
+        .filter(|(_, t)| t.iter().all(|&v| inside[v as usize]))
+        .map(|(f, _)| f as u32)
+        .collect()
+}
+
 /// [`partition_of_unity_with_stats`] with the mesh's [`vertex_adjacency`] already built.
 pub(super) fn partition_with_adjacency(
     positions_rest: &[Point3<f64>],
@@ -108,12 +119,7 @@ pub(super) fn partition_with_adjacency(
         })
         .collect();
 
-    let r_faces: Vec<u32> = triangles
-        .iter()
-        .enumerate()
-        .filter(|(_, t)| t.iter().all(|&v| in_r[v as usize]))
-        .map(|(f, _)| f as u32)
-        .collect();
+    let r_faces = faces_within(triangles, &in_r);
     stats.faces = r_faces.len();
     if !r_faces.is_empty() {
         let region = Region::from_faces(triangles, r_faces);

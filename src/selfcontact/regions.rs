@@ -15,7 +15,7 @@
 //! ([`WeldedMesh::representative`]); the rest positions are the bind positions of the body.
 
 use super::joint_tree::{JointTree, TreeSource};
-use super::partition::{partition_with_adjacency, vertex_adjacency, PartitionStats};
+use super::partition::{faces_within, partition_with_adjacency, vertex_adjacency, PartitionStats};
 use super::SelfContactError;
 use crate::mesh::WeldedMesh;
 use crate::rig::{Body, Rig, Skin};
@@ -78,8 +78,8 @@ pub struct PairRegions {
     pub w2: Vec<bool>,
     /// Welded vertices of the shared region `R = W1 ∩ W2` (ascending).
     pub shared: Vec<u32>,
-    /// Welded faces of `R`: the faces of `W1` whose corners all lie in `W2` too (ascending;
-    /// may be empty where `R` is a ring of vertices between the two regions' faces).
+    /// Welded faces of `R`: the faces whose corners all lie in both regions (ascending; may be
+    /// empty where `R` is a ring of vertices between the two regions' faces).
     pub shared_faces: Vec<u32>,
     /// Per welded vertex: the partition of unity `β` (1 on `W1 \ R`, 0 on `W2 \ R`, harmonic
     /// on `R`; 0 outside both regions).
@@ -459,18 +459,12 @@ fn grown_pair(
         let grown = grow(seed.clone(), &src.adjacency, options.grow_rings);
         as_faces(&mesh.triangles, &grown)
     });
-    let shared: Vec<u32> = (0..n)
-        .filter(|&v| w1[v] && w2[v])
-        .map(|v| v as u32)
-        .collect();
+    let in_r: Vec<bool> = w1.iter().zip(&w2).map(|(&a, &b)| a && b).collect();
+    let shared: Vec<u32> = (0..n).filter(|&v| in_r[v]).map(|v| v as u32).collect();
     if shared.is_empty() {
         return Ok(None);
     }
-    let shared_faces: Vec<u32> = w1_faces
-        .iter()
-        .filter(|&&f| mesh.triangles[f as usize].iter().all(|&v| w2[v as usize]))
-        .copied()
-        .collect();
+    let shared_faces = faces_within(&mesh.triangles, &in_r);
     let (beta, partition) =
         partition_with_adjacency(&src.rest, &mesh.triangles, &src.adjacency, &w1, &w2)
             .map_err(|e| e.for_pair(&seeded.pair.name))?;
