@@ -14,9 +14,7 @@
 //! Propagation also stops at vertices whose ray finds no hit (a vertex of `M_l` must be
 //! mappable); [`MappingStats::misses`] counts them.
 
-use crate::intersect::{
-    farthest_hit, FrontSide, IntersectionRegion, PosedMesh, Ray, RayHit, Silhouette,
-};
+use crate::intersect::{FrontSide, IntersectionRegion, PosedMesh, Ray, RayHit, Silhouette};
 use nalgebra::{Point3, Vector2, Vector3};
 use std::collections::{HashMap, VecDeque};
 
@@ -161,14 +159,17 @@ pub fn interpolated_normal(side: SideFrame, face: u32, bary: [f64; 3]) -> Vector
     n.try_normalize(1e-12).unwrap_or_else(Vector3::zeros)
 }
 
-/// Maps an arbitrary point of `own` (e.g. a point on an edge) by casting its ray.
+/// Maps an arbitrary point of `own` (e.g. a point on an edge) by casting its ray, which lands
+/// only on `other`'s hittable faces, as the vertices' rays do.
 pub fn map_point(
     other: SideFrame,
     point: &Point3<f64>,
     cast: &Vector3<f64>,
     reach: f64,
 ) -> Option<Mapping> {
-    farthest_hit(other.mesh, &Ray::new(*point, *cast, reach)).map(|h| mapping_of(other, &h))
+    other
+        .farthest_hit(&Ray::new(*point, *cast, reach))
+        .map(|h| mapping_of(other, &h))
 }
 
 /// One extruded contour segment of the other side, projected on the plane orthogonal to the
@@ -446,5 +447,37 @@ mod tests {
         }
         let (p0, p1) = (v(1.0 + 1e-6, -1.0), v(1.0 + 1e-6, 1.0));
         assert!(segment_crossing(&p0, &p1, &a, &b).is_none());
+    }
+
+    /// A point of an edge is mapped like a vertex: its ray lands only on the faces the other
+    /// side lets it hit (the self-contact pass restricts them to the neighbourhood of the other
+    /// part's intersection region), so the farthest hit is the farthest hittable one.
+    #[test]
+    fn points_of_edges_land_on_hittable_faces_only() {
+        use crate::intersect::MeshIndex;
+        // Two parallel squares, at z = 1 (faces 0, 1) and z = 3 (faces 2, 3).
+        let mut positions = Vec::new();
+        for z in [1.0, 3.0] {
+            for (x, y) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+                positions.push(Point3::new(x, y, z));
+            }
+        }
+        let triangles = vec![[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7]];
+        let index = MeshIndex::new(&positions, &triangles).expect("index");
+        let mesh = index.pose(&positions).expect("posed");
+        let normals = vec![Vector3::z(); positions.len()];
+        let near_only = [true, true, false, false];
+        let (point, cast) = (Point3::new(0.1, 0.2, 0.0), Vector3::z());
+        let target_z = |hittable: Option<&[bool]>| {
+            let other = SideFrame {
+                mesh: &mesh,
+                normals: &normals,
+                hittable,
+            };
+            map_point(other, &point, &cast, 10.0).map(|m| m.target.z)
+        };
+        assert_eq!(target_z(None), Some(3.0));
+        assert_eq!(target_z(Some(&near_only)), Some(1.0));
+        assert_eq!(target_z(Some(&[false; 4])), None);
     }
 }
