@@ -16,6 +16,7 @@
 //! [[pair]]
 //! objects = ["ball", "thumb"]
 //! tau = 0.6
+//! safeguard_angle = 80.0          # degrees, in (0, 90]: Sec. 4.4's safeguard (default 80)
 //! direction = [0.0, 1.0, 0.0]     # or direction_keys = [[t, x, y, z], ...]
 //! [self_contact]                  # optional: joints folding into themselves
 //! enabled = true
@@ -24,6 +25,7 @@
 //! grow_rings = 2
 //! stiffness = 0.5                 # k̄ of the parent side, in [0, 1]
 //! tau = -1.0                      # the paper's Fig. 13 and 15 (default)
+//! safeguard_angle = 80.0          # degrees, in (0, 90] (default 80, the paper's)
 //! joint_extent = 1.5              # φ̄ × the joint's size (default); or extent / extent_factor
 //! gamma = 1.0
 //! omega = 2.0
@@ -434,6 +436,9 @@ pub struct PairSpec {
     pub objects: [BodyRef; 2],
     /// `τ` of this pair.
     pub tau: Option<f64>,
+    /// The safeguard angle of Sec. 4.4 in degrees, in `(0, 90]`
+    /// ([`crate::contact::PairParams::safeguard_angle`]).
+    pub safeguard_angle: Option<f64>,
     /// A constant mapping direction.
     pub direction: Option<[f64; 3]>,
     /// Keyframed mapping directions `[time, x, y, z]`.
@@ -457,6 +462,8 @@ pub struct SelfContactSpec {
     pub stiffness: Option<f64>,
     /// `τ` of Eq. 4.
     pub tau: Option<f64>,
+    /// [`FoldParams::safeguard_angle`] in degrees, in `(0, 90]`.
+    pub safeguard_angle: Option<f64>,
     /// `φ̄` in scene units.
     pub extent: Option<f64>,
     /// `φ̄` as a fraction of the body's rest size ([`rest_sizes`]).
@@ -718,6 +725,7 @@ impl ContactConfig {
                 ));
             }
         }
+        self.check_safeguard(sc.safeguard_angle, at)?;
         let params = ParamSpec {
             stiffness: None,
             tau: sc.tau,
@@ -816,10 +824,22 @@ impl ContactConfig {
         }
     }
 
+    /// A safeguard angle must be a number of degrees in `(0, 90]`.
+    fn check_safeguard(&self, angle: Option<f64>, at: &str) -> Result<(), ConfigError> {
+        match angle {
+            Some(a) if !(a > 0.0 && a <= 90.0) => Err(self.invalid(
+                format!("{at}.safeguard_angle"),
+                format!("{a} is not in (0, 90] (degrees)"),
+            )),
+            _ => Ok(()),
+        }
+    }
+
     fn check_pair(&self, p: &PairSpec, at: &str) -> Result<(), ConfigError> {
         if p.tau.is_some_and(|t| !t.is_finite()) {
             return Err(self.invalid(format!("{at}.tau"), "must be finite"));
         }
+        self.check_safeguard(p.safeguard_angle, at)?;
         if p.direction.is_some() && p.direction_keys.is_some() {
             return Err(self.invalid(
                 format!("{at}.direction_keys"),
@@ -1007,6 +1027,7 @@ impl ContactConfig {
             out.push(PairOverride {
                 bodies: [a, b],
                 tau: p.tau,
+                safeguard_angle: p.safeguard_angle,
                 direction: self.direction_track(p, &at)?,
             });
         }
@@ -1129,6 +1150,9 @@ impl ContactConfig {
         }
         if let Some(t) = spec.tau {
             params.tau = t;
+        }
+        if let Some(a) = spec.safeguard_angle {
+            params.safeguard_angle = a;
         }
         if let Some(g) = spec.gamma {
             params.deform.gamma = g;

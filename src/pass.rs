@@ -74,6 +74,8 @@ pub struct PairOverride {
     pub bodies: [usize; 2],
     /// `τ` of this pair.
     pub tau: Option<f64>,
+    /// The safeguard angle of this pair in degrees ([`PairParams::safeguard_angle`]).
+    pub safeguard_angle: Option<f64>,
     /// Mapping direction, outward for `bodies[0]` (constant or keyframed).
     pub direction: Option<DirectionTrack>,
 }
@@ -397,12 +399,16 @@ impl ContactPass {
             stiffness_a,
             tau,
             direction: DirectionMode::Automatic,
+            ..PairParams::default()
         };
         for o in &self.overrides {
             let swapped = o.bodies == [b, a];
             if o.bodies == [a, b] || swapped {
                 if let Some(t) = o.tau {
                     pp.tau = t;
+                }
+                if let Some(a) = o.safeguard_angle {
+                    pp.safeguard_angle = a;
                 }
                 if let Some(track) = &o.direction {
                     let d = track.at(time);

@@ -103,6 +103,7 @@ omega = 0
 [[pair]]
 objects = ["ball", "index"]
 tau = 0.6
+safeguard_angle = 70            # degrees
 direction = [0.0, 1.0, 0.0]
 
 [[pair]]
@@ -158,12 +159,34 @@ fn a_full_example_parses_and_resolves() {
     assert_eq!(overrides.len(), 2);
     assert_eq!(overrides[0].bodies, [0, 2]);
     assert_eq!(overrides[0].tau, Some(0.6));
+    assert_eq!(overrides[0].safeguard_angle, Some(70.0));
+    let pre = contact_skin::frames::Precomputed::new(&rig, contact_skin::skinning::Method::Lbs);
+    let rest = contact_skin::frames::welded_positions(&rig, &pre, None, 0.0);
+    let bodies: Vec<_> = rest
+        .iter()
+        .zip(&pre.welded)
+        .map(|(p, w)| (p.as_slice(), w.triangles.as_slice()))
+        .collect();
+    let pass = contact_skin::pass::ContactPass::new(&bodies, params.clone(), overrides.clone())
+        .expect("pass");
+    assert_eq!(pass.pair_params(0, 2, 0.0).safeguard_angle, 70.0);
+    assert_eq!(
+        pass.pair_params(2, 0, 0.0).safeguard_angle,
+        70.0,
+        "either order"
+    );
+    assert_eq!(
+        pass.pair_params(0, 1, 0.0).safeguard_angle,
+        80.0,
+        "the paper's default"
+    );
     assert_eq!(
         overrides[0].direction,
         Some(DirectionTrack::constant(Vector3::new(0.0, 1.0, 0.0)))
     );
     assert_eq!(overrides[1].bodies, [3, 0]);
     assert_eq!(overrides[1].tau, None);
+    assert_eq!(overrides[1].safeguard_angle, None);
     let track = overrides[1].direction.as_ref().expect("keyed");
     let sorted = DirectionTrack::keyed(vec![
         (0.0, Vector3::new(0.0, 0.0, 2.0)),
@@ -259,6 +282,9 @@ fn bad_numbers_are_invalid_and_name_the_field() {
         ("passes = 0\n", "passes"),
         ("passes = 1000\n", "passes"),
         ("[[pair]]\nobjects = [0, 1]\ntau = nan\n", "pair[0].tau"),
+        ("[[pair]]\nobjects = [0, 1]\nsafeguard_angle = -10\n", "pair[0].safeguard_angle"),
+        ("[[pair]]\nobjects = [0, 1]\nsafeguard_angle = 180\n", "pair[0].safeguard_angle"),
+        ("[[pair]]\nobjects = [0, 1]\nsafeguard_angle = inf\n", "pair[0].safeguard_angle"),
         ("[[pair]]\nobjects = [0, 1]\ndirection = [0, 0, 0]\n", "pair[0].direction"),
         (
             "[[pair]]\nobjects = [0, 1]\ndirection = [1e308, 1e308, 1e308]\n",
@@ -649,6 +675,7 @@ threshold = 0.1
 grow_rings = 3
 stiffness = 0.7                 # k̄ of the parent side
 tau = 0.2
+safeguard_angle = 75.5
 extent_factor = 0.25
 gamma = 0.5
 omega = 1                       # an integer
@@ -681,6 +708,7 @@ fn the_self_contact_table_parses_and_resolves() {
     let mut params = FoldParams {
         stiffness_1: 0.7,
         tau: 0.2,
+        safeguard_angle: 75.5,
         joint_extent: None,
         ..Default::default()
     };
@@ -823,6 +851,18 @@ fn bad_self_contact_values_are_typed_errors_naming_the_field() {
             "self_contact.stiffness".into(),
         ),
         ("[self_contact]\ntau = inf\n", "self_contact.tau".into()),
+        (
+            "[self_contact]\nsafeguard_angle = 0\n",
+            "self_contact.safeguard_angle".into(),
+        ),
+        (
+            "[self_contact]\nsafeguard_angle = 90.5\n",
+            "self_contact.safeguard_angle".into(),
+        ),
+        (
+            "[self_contact]\nsafeguard_angle = nan\n",
+            "self_contact.safeguard_angle".into(),
+        ),
         ("[self_contact]\nextent = 0\n", "self_contact.extent".into()),
         (
             "[self_contact]\nextent_factor = -1\n",

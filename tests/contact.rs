@@ -421,6 +421,7 @@ fn keyframed_user_direction_drives_the_contact() {
     let over = PairOverride {
         bodies: [0, 1],
         tau: None,
+        safeguard_angle: None,
         direction: Some(track.clone()),
     };
     let pass = l

@@ -1007,13 +1007,14 @@ fn same_bytes(a: &Path, b: &Path, name: &str) -> Vec<u8> {
 
 /// `info` reports the self-contact pass as `pose` would run it: the derived pair with its
 /// joints, shared region, joint size and extent, and where its direction comes from (here the
-/// configuration's `[self_contact] direction = "motion"`), in text and in JSON.
+/// configuration's `[self_contact] direction = "motion"`), and the configured safeguard angle,
+/// in text and in JSON.
 #[test]
 fn info_reports_the_joint_pairs_and_their_direction_source() {
     let (dir, rig) = committed_copy("mouth", "info-motion");
     std::fs::write(
         dir.join("mouth.contact.toml"),
-        "[self_contact]\ndirection = \"motion\"\n",
+        "[self_contact]\ndirection = \"motion\"\nsafeguard_angle = 72.5\n",
     )
     .expect("config");
     let run = |json: bool| {
@@ -1026,12 +1027,14 @@ fn info_reports_the_joint_pairs_and_their_direction_source() {
     let text = run(false);
     assert!(
         text.contains("pair 'lips/head-jaw'")
-            && text.contains("direction from the relative motion of the parts"),
+            && text.contains("direction from the relative motion of the parts")
+            && text.contains("safeguard 72.5 deg"),
         "{text}"
     );
     let v: Value = serde_json::from_str(&run(true)).expect("json");
     let sc = &v["self_contact"];
     assert_eq!(sc["enabled"], true);
+    assert_eq!(sc["safeguard_angle"].as_f64(), Some(72.5));
     let pairs = sc["pairs"].as_array().expect("pairs");
     assert_eq!(pairs.len(), 1);
     let p = &pairs[0];

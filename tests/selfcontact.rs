@@ -1091,6 +1091,78 @@ fn bulges_higher_than_their_band_are_refused() {
     assert_eq!(refused, 5);
 }
 
+/// The safeguard angle of Sec. 4.4 (`FoldParams::safeguard_angle`) only takes vertices out of
+/// the contact zones: the threshold `ε_c` does not depend on it, a smaller angle gives a subset
+/// of the zone, and every zone vertex (and no other sample at or above `ε_c`) has both normals
+/// within the angle of the mapping direction, except the crease vertices that the pass adds
+/// to a zone by a test of their own (`zones_to_the_crease`, for any angle that leaves the
+/// side a zone). Bending capsule with CoR input (whose squashed
+/// inner elbow grazes the mapping direction), every frame with a fold; the angle must change
+/// some zone between 80° and 60°, so the parameter reaches the pass.
+#[test]
+fn the_safeguard_angle_only_narrows_the_zones() {
+    use contact_skin::contact::zones::safeguard_cos;
+    let fold = CapsuleFold::skinned_with(Method::Cor);
+    let angles = [90.0, 80.0, 70.0, 60.0];
+    let (mut folds, mut narrowed) = (0, 0);
+    for f in 0..31 {
+        let runs: Vec<_> = angles
+            .iter()
+            .map(|&safeguard_angle| {
+                let params = FoldParams {
+                    safeguard_angle,
+                    ..FoldParams::default()
+                };
+                fold.at(f, &params).out.map(|o| (o.contact, o.crease.on_w1))
+            })
+            .collect();
+        let Some((widest, on_w1)) = &runs[0] else {
+            assert!(
+                runs.iter().all(Option::is_none),
+                "frame {f}: detection is the same"
+            );
+            continue;
+        };
+        let crease: Vec<bool> = {
+            let mut c = vec![false; on_w1.len()];
+            for t in &fold.l.triangles[0] {
+                if t.iter().any(|&v| on_w1[v as usize] != on_w1[t[0] as usize]) {
+                    t.iter().for_each(|&v| c[v as usize] = true);
+                }
+            }
+            c
+        };
+        folds += 1;
+        for (run, &angle) in runs.iter().zip(&angles) {
+            let (c, cut) = run.as_ref().expect("the same detection");
+            assert_eq!(cut, on_w1, "frame {f}, {angle}°: the same crease cut");
+            assert_eq!(c.threshold, widest.threshold, "frame {f}, {angle}°");
+            let guard = safeguard_cos(angle);
+            for (side, wide) in c.sides.iter().zip(&widest.sides) {
+                for (v, (&inside, &on_crease)) in side.zone.inside.iter().zip(&crease).enumerate() {
+                    let Some(s) = side.samples.get(v) else {
+                        assert!(!inside, "frame {f}: a zone vertex is sampled");
+                        continue;
+                    };
+                    let expected = s.depth >= c.threshold && s.safeguard >= guard;
+                    if !on_crease {
+                        assert_eq!(inside, expected, "frame {f}, {angle}°, {v}");
+                    }
+                    assert!(!inside || wide.zone.inside[v], "frame {f}: subset");
+                }
+            }
+        }
+        let zone_sizes = |k: usize| {
+            let (c, _) = runs[k].as_ref().expect("fold");
+            c.sides[0].zone.vertices.len() + c.sides[1].zone.vertices.len()
+        };
+        narrowed += (zone_sizes(3) < zone_sizes(1)) as usize;
+    }
+    assert!(folds >= 20, "the bend folds ({folds} frames)");
+    assert!(narrowed > 0, "60° narrows some zone");
+    println!("{folds} folds, {narrowed} zones narrowed by 60° against 80°");
+}
+
 /// The exterior band of [`exterior_of_the_joint_is_left_alone`] with the default extent `φ̄`
 /// (the profile reaches round the joint) through the whole bend, 0 to 150°. Without bulge
 /// (γ = 0) the profile's amplitude fades with `σ` there (`deform::region`'s

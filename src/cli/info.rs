@@ -2,6 +2,7 @@
 
 use super::CliResult;
 use contact_skin::config::{self, ContactConfig};
+use contact_skin::contact::zones::DEFAULT_SAFEGUARD_ANGLE;
 use contact_skin::mesh::{TopologyReport, WeldedMesh};
 use contact_skin::pass::DEFAULT_EXTENT_FACTOR;
 use contact_skin::rig::{self, Rig};
@@ -50,6 +51,8 @@ struct PairInfo {
     bodies: [usize; 2],
     names: [String; 2],
     tau: Option<f64>,
+    /// Degrees (`null`: the default, 80°).
+    safeguard_angle: Option<f64>,
     /// `automatic`, `constant [x, y, z]` or `N keys from t0 to t1`.
     direction: String,
 }
@@ -106,6 +109,8 @@ struct SelfContactInfo {
     /// `k̄` of the parent side.
     stiffness: f64,
     tau: f64,
+    /// The safeguard angle of Sec. 4.4, degrees.
+    safeguard_angle: f64,
     /// `φ̄` as a multiple of each joint's size (`null`: `extent` in scene units for all).
     joint_extent: Option<f64>,
     /// `φ̄` in scene units when `joint_extent` is `null`.
@@ -287,6 +292,7 @@ fn describe_self_contact(
         grow_rings: settings.regions.grow_rings,
         stiffness: f.stiffness_1,
         tau: f.tau,
+        safeguard_angle: f.safeguard_angle,
         extent: f.deform.extent,
         gamma: f.deform.gamma,
         omega: f.deform.omega,
@@ -298,7 +304,7 @@ fn describe_self_contact(
 
 fn print_self_contact(s: &SelfContactInfo) {
     println!(
-        "  self-contact ({}{}): {} sweep(s) per frame, threshold {}, grow rings {}, stiffness {}, tau {}, extent {}, gamma {}, omega {}",
+        "  self-contact ({}{}): {} sweep(s) per frame, threshold {}, grow rings {}, stiffness {}, tau {}, safeguard {} deg, extent {}, gamma {}, omega {}",
         if s.enabled { "on" } else { "off" },
         if s.configured {
             ", [self_contact] of the configuration"
@@ -310,6 +316,7 @@ fn print_self_contact(s: &SelfContactInfo) {
         s.grow_rings,
         s.stiffness,
         s.tau,
+        s.safeguard_angle,
         match s.joint_extent {
             Some(k) => format!("{k} x joint size"),
             None => format!("{:.6}", s.extent),
@@ -388,6 +395,7 @@ fn describe_contact(
             bodies: o.bodies,
             names: o.bodies.map(|b| rig.bodies[b].name.clone()),
             tau: o.tau,
+            safeguard_angle: o.safeguard_angle,
             direction: describe_direction(spec),
         })
         .collect();
@@ -436,8 +444,9 @@ fn print_contact(c: &ContactInfo) {
     }
     for p in &c.pairs {
         let tau = p.tau.map_or("from the objects".into(), |t| t.to_string());
+        let guard = p.safeguard_angle.unwrap_or(DEFAULT_SAFEGUARD_ANGLE);
         println!(
-            "    pair '{}' / '{}': tau {tau}, direction {}",
+            "    pair '{}' / '{}': tau {tau}, safeguard {guard} deg, direction {}",
             p.names[0], p.names[1], p.direction
         );
     }

@@ -16,8 +16,15 @@ use super::mapping::{interpolated_normal, map_point, Mapping, MappingRegion, Sid
 use nalgebra::{Point3, Vector3};
 use std::collections::HashMap;
 
-/// `cos 80°`: the safeguard of Sec. 4.4.
-pub const SAFEGUARD_COS: f64 = 0.173_648_177_666_930_4;
+/// The safeguard angle of Sec. 4.4 (degrees): a vertex whose own normal, or the other side's
+/// normal at its mapping, makes a larger angle than this with the mapping direction is left out
+/// of the contact zone. The paper's value; [`crate::contact::PairParams::safeguard_angle`].
+pub const DEFAULT_SAFEGUARD_ANGLE: f64 = 80.0;
+
+/// The safeguard of [`SurfaceSample::safeguard`] for an angle in degrees: its cosine.
+pub fn safeguard_cos(angle_degrees: f64) -> f64 {
+    angle_degrees.to_radians().cos()
+}
 
 /// A point of a mapping region and its image on the potential contact surface.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -369,16 +376,22 @@ pub struct Zone {
     pub boundary: Vec<ZoneBoundaryPoint>,
 }
 
-fn in_zone(s: &SurfaceSample, eps: f64) -> bool {
-    s.depth >= eps && s.safeguard >= SAFEGUARD_COS
+fn in_zone(s: &SurfaceSample, eps: f64, guard: f64) -> bool {
+    s.depth >= eps && s.safeguard >= guard
 }
 
-/// Lines 23-27: the zone of one side for threshold `eps`.
-pub fn zone(input: &SideInput, samples: &SideSamples, eps: f64) -> Zone {
+/// Lines 23-27: the zone of one side for threshold `eps` and safeguard `guard` (the cosine of
+/// the safeguard angle, [`safeguard_cos`]).
+pub fn zone(input: &SideInput, samples: &SideSamples, eps: f64, guard: f64) -> Zone {
     let index = input.own.mesh.index();
     let n = samples.vertices.len();
     let inside: Vec<bool> = (0..n)
-        .map(|v| samples.vertices.get(v).is_some_and(|s| in_zone(s, eps)))
+        .map(|v| {
+            samples
+                .vertices
+                .get(v)
+                .is_some_and(|s| in_zone(s, eps, guard))
+        })
         .collect();
     let vertices: Vec<u32> = (0..n as u32).filter(|&v| inside[v as usize]).collect();
     let mut boundary = Vec::new();
@@ -400,7 +413,7 @@ pub fn zone(input: &SideInput, samples: &SideSamples, eps: f64) -> Zone {
                 (None, Some((t, s))) => (*t, s),
                 (None, None) => continue,
             };
-            let lambda = first_exit(si, sj, eps);
+            let lambda = first_exit(si, sj, eps, guard);
             boundary.push(project(input, i, j, lambda * t_end, lambda, si, sj));
         }
     }
@@ -413,7 +426,7 @@ pub fn zone(input: &SideInput, samples: &SideSamples, eps: f64) -> Zone {
 
 /// Eq. 5: the smallest `λ ∈ (0, 1]` where the linearly interpolated criterion or safeguard
 /// stops holding between samples `a` (inside) and `b`.
-fn first_exit(a: &SurfaceSample, b: &SurfaceSample, eps: f64) -> f64 {
+fn first_exit(a: &SurfaceSample, b: &SurfaceSample, eps: f64, guard: f64) -> f64 {
     let (da, db) = (a.mapping.target - a.point, b.mapping.target - b.point);
     let (na, nb) = (a.surface_normal, b.surface_normal);
     let c0 = na.dot(&da) - eps;
@@ -425,7 +438,7 @@ fn first_exit(a: &SurfaceSample, b: &SurfaceSample, eps: f64) -> f64 {
             best = best.min(r);
         }
     }
-    let (ga, gb) = (a.safeguard - SAFEGUARD_COS, b.safeguard - SAFEGUARD_COS);
+    let (ga, gb) = (a.safeguard - guard, b.safeguard - guard);
     if gb < 0.0 && ga >= 0.0 && ga != gb {
         best = best.min(ga / (ga - gb));
     }
@@ -585,6 +598,41 @@ mod tests {
             }
         }
         (angle, dist)
+    }
+
+    /// Eq. 5 with the safeguard: along an edge whose depth criterion holds throughout, the
+    /// zone's boundary is where the linearly interpolated safeguard crosses the cosine of the
+    /// safeguard angle, whatever the angle.
+    #[test]
+    fn the_zone_boundary_follows_the_safeguard_angle() {
+        let frame = SurfaceFrame {
+            cast: -Vector3::z(),
+            stiffness: 0.5,
+        };
+        // Own normal in the x-z plane at `angle` from the direction `-cast = +z`; the other
+        // side's normal exactly against it, one unit below.
+        let sample = |x: f64, angle: f64| {
+            let n = Vector3::new(angle.to_radians().sin(), 0.0, angle.to_radians().cos());
+            let point = Point3::new(x, 0.0, 0.0);
+            let mapping = Mapping {
+                target: point - Vector3::z(),
+                target_normal: -n,
+            };
+            frame.sample(point, n, mapping)
+        };
+        let (a, b) = (sample(0.0, 60.0), sample(1.0, 89.0));
+        assert!((a.safeguard - 0.5).abs() < 1e-12 && a.depth > 0.0 && b.depth > 0.0);
+        for angle in [80.0, 70.0, 65.0] {
+            let guard = safeguard_cos(angle);
+            let expected = (a.safeguard - guard) / (a.safeguard - b.safeguard);
+            let lambda = first_exit(&a, &b, -1.0, guard);
+            assert!(
+                (lambda - expected).abs() < 1e-12,
+                "{angle}°: {lambda} {expected}"
+            );
+            assert!(in_zone(&a, -1.0, guard) && !in_zone(&b, -1.0, guard));
+        }
+        assert!((safeguard_cos(DEFAULT_SAFEGUARD_ANGLE) - 0.173_648_177_666_930_4).abs() < 1e-15);
     }
 
     #[test]
