@@ -407,8 +407,8 @@ impl ContactPass {
                 if let Some(t) = o.tau {
                     pp.tau = t;
                 }
-                if let Some(a) = o.safeguard_angle {
-                    pp.safeguard_angle = a;
+                if let Some(angle) = o.safeguard_angle {
+                    pp.safeguard_angle = angle;
                 }
                 if let Some(track) = &o.direction {
                     let d = track.at(time);

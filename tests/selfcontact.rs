@@ -1144,7 +1144,11 @@ fn the_safeguard_angle_only_narrows_the_zones() {
                         assert!(!inside, "frame {f}: a zone vertex is sampled");
                         continue;
                     };
-                    let expected = s.depth >= c.threshold && s.safeguard >= guard;
+                    // Sec. 4.4: min(-d̂ᵀn_i, d̂ᵀn''_i) with d̂ the ray's direction.
+                    let d = side.direction;
+                    let definition = s.own_normal.dot(&d).min(-s.mapping.target_normal.dot(&d));
+                    assert!((s.safeguard - definition).abs() < 1e-12, "frame {f}, {v}");
+                    let expected = s.depth >= c.threshold && definition >= guard;
                     if !on_crease {
                         assert_eq!(inside, expected, "frame {f}, {angle}°, {v}");
                     }

@@ -51,8 +51,8 @@ struct PairInfo {
     bodies: [usize; 2],
     names: [String; 2],
     tau: Option<f64>,
-    /// Degrees (`null`: the default, 80°).
-    safeguard_angle: Option<f64>,
+    /// Degrees (the default, 80°, unless the pair sets it).
+    safeguard_angle: f64,
     /// `automatic`, `constant [x, y, z]` or `N keys from t0 to t1`.
     direction: String,
 }
@@ -395,7 +395,7 @@ fn describe_contact(
             bodies: o.bodies,
             names: o.bodies.map(|b| rig.bodies[b].name.clone()),
             tau: o.tau,
-            safeguard_angle: o.safeguard_angle,
+            safeguard_angle: o.safeguard_angle.unwrap_or(DEFAULT_SAFEGUARD_ANGLE),
             direction: describe_direction(spec),
         })
         .collect();
@@ -444,10 +444,9 @@ fn print_contact(c: &ContactInfo) {
     }
     for p in &c.pairs {
         let tau = p.tau.map_or("from the objects".into(), |t| t.to_string());
-        let guard = p.safeguard_angle.unwrap_or(DEFAULT_SAFEGUARD_ANGLE);
         println!(
-            "    pair '{}' / '{}': tau {tau}, safeguard {guard} deg, direction {}",
-            p.names[0], p.names[1], p.direction
+            "    pair '{}' / '{}': tau {tau}, safeguard {} deg, direction {}",
+            p.names[0], p.names[1], p.safeguard_angle, p.direction
         );
     }
 }

@@ -41,12 +41,12 @@ pub struct PairParams {
     pub stiffness_a: f64,
     /// `τ` of Eq. 4 (apparent stiffness: extent of the contact zone).
     pub tau: f64,
-    /// The safeguard of Sec. 4.4 in degrees, in `(0, 90]`: a vertex whose own normal, or the
-    /// other side's normal at its mapping, makes a larger angle with the mapping direction
-    /// stays out of the contact zone. Default [`zones::DEFAULT_SAFEGUARD_ANGLE`] (80°, the
-    /// paper's). A smaller angle leaves the grazing parts of a contact out of the zone: fewer
-    /// pops where contacts are born grazing, more residual penetration (measured on CesiumMan
-    /// and the bending capsule in `README.md`).
+    /// The safeguard of Sec. 4.4 in degrees, in `(0, 90]` (checked by the configuration, not
+    /// here): a vertex stays out of the contact zone unless its normal is within this angle of
+    /// its side's direction and the other side's normal at its mapping within this angle of the
+    /// opposite direction. Default [`zones::DEFAULT_SAFEGUARD_ANGLE`] (80°, the paper's). A
+    /// smaller angle leaves the grazing parts of a contact out of the zone: more residual
+    /// penetration, and on CesiumMan fewer pops (measured in `README.md`).
     pub safeguard_angle: f64,
     /// The mapping direction.
     pub direction: DirectionMode,

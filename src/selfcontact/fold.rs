@@ -111,10 +111,14 @@ pub struct FoldParams {
     /// LBS capsule and mouth unchanged (0 and 0; temporal ratios 1.82 → 1.78, 1.03 → 1.03).
     pub tau: f64,
     /// The safeguard angle of Sec. 4.4 in degrees ([`PairParams::safeguard_angle`]; default
-    /// 80°, the paper's). Measured with 75° (`pose --metrics`, two sweeps, against 80°):
-    /// CesiumMan's walk ratio 7.05 → 4.04 over 61 frames and 2 → 0 turned faces, but 56 → 80
-    /// penetrating vertices over 21 frames; CoR and DQS capsules 23 → 49 and 21 → 44 over 31
-    /// frames; LBS capsule, finger and mouth unchanged.
+    /// 80°, the paper's). It governs the zones of Eq. 3; the crease vertices that
+    /// `zones_to_the_crease` adds to a zone are not subject to it (they sit where the two parts
+    /// meet, their normals anywhere: up to 132° from the direction on the CoR capsule).
+    /// Measured with 75° against 80° (`pose --metrics`, two sweeps, summed penetrating
+    /// vertices): CesiumMan's walk ratio 7.05 → 4.04 over 61 frames and 2 → 0 turned faces,
+    /// but 58 → 80 penetrating vertices over 21 frames; CoR and DQS capsules 23 → 49 and
+    /// 21 → 44 over 31 frames (CoR ratio 22.47 → 22.90); LBS capsule, finger and mouth
+    /// unchanged.
     pub safeguard_angle: f64,
     /// Deformation parameters of both regions.
     pub deform: DeformParams,
