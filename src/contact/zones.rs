@@ -653,6 +653,76 @@ mod tests {
         assert_eq!(safeguard_cos(90.0), 0.0);
     }
 
+    /// A boundary point of a mapping region found by bisection is the last point of the edge
+    /// whose ray lands on a hittable face of the other side: the self-contact pass's mask
+    /// stops it where the hittable faces end, as it stops the vertices' rays.
+    #[test]
+    fn bisected_boundary_points_stop_where_the_hittable_faces_end() {
+        use crate::contact::mapping::{mapping_of, MappingRegion};
+        use crate::intersect::{MeshIndex, Ray};
+        // Own side: one triangle at z = 0, cast up. Other side: a square at z = 1 over
+        // x in [-1, 0.25] (faces 0, 1) and one at z = 3 over x in [-1, 1] (faces 2, 3).
+        let own_pos = vec![
+            Point3::new(0.0, 0.0, 0.0),
+            Point3::new(0.5, 0.0, 0.0),
+            Point3::new(0.0, 0.5, 0.0),
+        ];
+        let own_tri = vec![[0, 1, 2]];
+        let mut other_pos = Vec::new();
+        for (x1, z) in [(0.25, 1.0), (1.0, 3.0)] {
+            for (x, y) in [(-1.0, -1.0), (x1, -1.0), (x1, 1.0), (-1.0, 1.0)] {
+                other_pos.push(Point3::new(x, y, z));
+            }
+        }
+        let other_tri = vec![[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7]];
+        let (own_index, other_index) = (
+            MeshIndex::new(&own_pos, &own_tri).expect("own"),
+            MeshIndex::new(&other_pos, &other_tri).expect("other"),
+        );
+        let (own_mesh, other_mesh) = (
+            own_index.pose(&own_pos).expect("own"),
+            other_index.pose(&other_pos).expect("other"),
+        );
+        let (own_n, other_n) = (vec![Vector3::z(); 3], vec![-Vector3::z(); 8]);
+        let near_only = [true, true, false, false];
+        let hits = EdgeHits::new();
+        let boundary_of_edge_0_1 = |hittable: Option<&[bool]>| {
+            let other = SideFrame {
+                mesh: &other_mesh,
+                normals: &other_n,
+                hittable,
+            };
+            let target = other.farthest_hit(&Ray::new(own_pos[0], Vector3::z(), 10.0));
+            let region = MappingRegion {
+                mapped: vec![target.map(|h| mapping_of(other, &h)), None, None],
+                members: vec![0],
+                ..Default::default()
+            };
+            let input = SideInput {
+                own: SideFrame {
+                    mesh: &own_mesh,
+                    normals: &own_n,
+                    hittable: None,
+                },
+                other,
+                region: &region,
+                hits: &hits,
+                frame: SurfaceFrame {
+                    cast: Vector3::z(),
+                    stiffness: 0.5,
+                },
+                reach: 10.0,
+            };
+            let samples = input.samples();
+            let (t, s) = samples.boundary[&(0, 1)];
+            (t, s.mapping.target.z)
+        };
+        let (t, z) = boundary_of_edge_0_1(Some(&near_only));
+        assert!((t - 0.5).abs() < 1e-4 && z == 1.0, "masked: t {t}, z {z}");
+        let (t, z) = boundary_of_edge_0_1(None);
+        assert!(t > 1.0 - 1e-4 && z == 3.0, "every face: t {t}, z {z}");
+    }
+
     #[test]
     fn potential_surface_normal_matches_two_planes() {
         let fa = |x: f64, y: f64| (0.3 + 0.4 * x - 0.7 * y, [0.4, -0.7]);
