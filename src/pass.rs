@@ -356,7 +356,7 @@ impl ContactPass {
                     region,
                     triangles: tris.to_vec(),
                     deform,
-                    rest_diagonal: crate::mesh::bbox_diagonal(pos),
+                    rest_diagonal: crate::mesh::bbox_diagonal(*pos),
                 })
             })
             .collect::<Result<Vec<_>, PassError>>()?;

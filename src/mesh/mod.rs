@@ -101,8 +101,10 @@ impl WeldedMesh {
 }
 
 /// Diagonal of the axis-aligned bounding box (0 for no point; finite whenever its sides are).
-pub fn bbox_diagonal(points: &[Point3<f64>]) -> f64 {
-    let Some(first) = points.first() else {
+/// Takes any iterator of points, so that a subset of a mesh's vertices needs no copy.
+pub fn bbox_diagonal<'a>(points: impl IntoIterator<Item = &'a Point3<f64>>) -> f64 {
+    let mut points = points.into_iter();
+    let Some(first) = points.next() else {
         return 0.0;
     };
     let (mut lo, mut hi) = (first.coords, first.coords);

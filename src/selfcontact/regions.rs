@@ -118,12 +118,11 @@ impl PairRegions {
     /// The diagonal of the bounding box of `R`'s vertices at `positions` (the posed size that
     /// [`crate::selfcontact::fold::FoldPre::collapsed`] compares with the rest one).
     pub fn box_diagonal(&self, positions: &[Point3<f64>]) -> f64 {
-        let points: Vec<Point3<f64>> = self
-            .shared
-            .iter()
-            .filter_map(|&v| positions.get(v as usize).copied())
-            .collect();
-        crate::mesh::bbox_diagonal(&points)
+        crate::mesh::bbox_diagonal(
+            self.shared
+                .iter()
+                .filter_map(|&v| positions.get(v as usize)),
+        )
     }
 }
 
