@@ -429,7 +429,7 @@ fn overlapping_spheres_flag_exactly_the_vertices_inside_the_other_sphere() {
 fn self_contact_in_one_component_uses_the_facing_side_for_depth() {
     // The two overlapping spheres joined into one connected component: a vertex of B is moved
     // exactly onto a vertex of A near the intersection circle (a pinch), so the depth of a
-    // flagged vertex must come from its own component's faces beyond 3 rings that face it.
+    // flagged vertex must come from its own component's faces that face it (the other sphere's).
     let (a, mut b, spheres) = overlapping_spheres();
     // The closest pair of vertices of the two meshes (on the intersection curve): the move is
     // a small fraction of an edge.

@@ -47,8 +47,13 @@ pub const PENETRATION_NUDGE: f64 = 0.05;
 pub const PENETRATION_THRESHOLD: f64 = 1.5;
 
 /// Topological rings around a penetrating vertex whose faces are never taken as the penetrated
-/// surface of the vertex's own connected component (see [`residual_penetration`]).
-pub const DEPTH_EXCLUDED_RINGS: usize = 3;
+/// surface of the vertex's own connected component (see [`residual_penetration`]): 0, only the
+/// faces at the vertex itself. A vertex under a neighbour's face folded over it (a skinning's
+/// local fold on a coarse mesh) is inside twice by a fraction of an edge, and that face is the
+/// one it penetrates; with 3 rings excluded, as before, its depth was the distance to the first
+/// facing face beyond them, about the rings' radius (CesiumMan: 3.0-4.4 h reported for vertices
+/// 0.07-0.3 h under a face one or two rings away).
+pub const DEPTH_EXCLUDED_RINGS: usize = 0;
 
 /// Faces per BVH leaf at most.
 const LEAF_SIZE: usize = 4;
@@ -771,13 +776,15 @@ pub struct Penetration {
 /// that can be the penetrated surface:
 /// - every face of another connected component (topology welded by exactly equal positions,
 ///   so split seams do not separate a body);
-/// - a face of the vertex's own component when none of its corners is within
-///   [`DEPTH_EXCLUDED_RINGS`] = 3 topological rings of the vertex, and it faces the vertex
-///   (its unit normal has a negative dot product with the vertex normal, as the two sides of a
-///   self-contact do); without such a face, the facing condition is dropped.
+/// - a face of the vertex's own component that is not one of the vertex's own faces
+///   ([`DEPTH_EXCLUDED_RINGS`] = 0) and faces the vertex (its unit normal has a negative dot
+///   product with the vertex normal, as the two sides of a self-contact do, and a face folded
+///   over its neighbours); without such a face, the facing condition is dropped.
 ///
 /// So depths against other bodies are exact, and self-contact depths are those of the
-/// opposing side of the fold; 0 when no face qualifies. Only vertices used by a triangle with
+/// opposing side of the fold; 0 when no face qualifies. Where a thin part's two sides lie
+/// closer than a vertex is deep (a plate a fraction of the depth thick), the part's own far
+/// side is the nearer facing face and the depth is understated. Only vertices used by a triangle with
 /// in-range indices are evaluated; faces with an invalid corner are ignored.
 pub fn residual_penetration(
     scene_positions: &[Point3<f64>],
@@ -886,8 +893,8 @@ fn inside_when_nudged(
 }
 
 /// Depth of each `flagged` vertex: its distance to the nearest face of another component, or of
-/// its own beyond [`DEPTH_EXCLUDED_RINGS`] rings that faces away from its normal (else any
-/// such face).
+/// its own beyond [`DEPTH_EXCLUDED_RINGS`] rings of it that faces its normal (else any such
+/// face).
 fn flagged_depths(
     winding: &WindingNumber,
     topo: &Topology,
