@@ -2,8 +2,8 @@
 //!
 //! Poses rigged glTF characters and resolves their contacts geometrically, after
 //! Brunel, Bénard and Guennebaud, *A Time-independent Deformer for Elastic Contacts* (2021).
-//! The implicit-layer model of Cani and Desbrun (1997), the second contact model to compare
-//! against, is not built yet: no issue has asked for it so far.
+//! The implicit-layer model of Cani and Desbrun (1997), the comparison model that
+//! `PIPELINE.md` specifies ("Implicit-layer contact"), is not built yet.
 //!
 //! The crate is laid out by pipeline stage:
 //!

@@ -777,15 +777,18 @@ pub struct Penetration {
 /// - every face of another connected component (topology welded by exactly equal positions,
 ///   so split seams do not separate a body);
 /// - a face of the vertex's own component that is not one of the vertex's own faces
-///   ([`DEPTH_EXCLUDED_RINGS`] = 0) and faces the vertex (its unit normal has a negative dot
-///   product with the vertex normal, as the two sides of a self-contact do, and a face folded
-///   over its neighbours); without such a face, the facing condition is dropped.
+///   ([`DEPTH_EXCLUDED_RINGS`] = 0) and faces the vertex: its unit normal has a negative dot
+///   product with the vertex normal, as the two sides of a self-contact do, and as a face
+///   folded over the vertex does; without such a face, the facing condition is dropped.
 ///
 /// So depths against other bodies are exact, and self-contact depths are those of the
-/// opposing side of the fold; 0 when no face qualifies. Where a thin part's two sides lie
-/// closer than a vertex is deep (a plate a fraction of the depth thick), the part's own far
-/// side is the nearer facing face and the depth is understated. Only vertices used by a triangle with
-/// in-range indices are evaluated; faces with an invalid corner are ignored.
+/// opposing side of the fold; 0 when no face qualifies. On a closed mesh the depth is at most
+/// the distance from the vertex, inward along its normal, to where it stops being inside
+/// twice (that exit is through a face of this kind: `tests/selfcontact_samples.rs`). Where a
+/// thin part's two sides lie closer than a vertex is deep (a plate a fraction of the depth
+/// thick), the part's own far side is the nearer facing face and the depth is understated.
+/// Only vertices used by a triangle with in-range indices are evaluated; faces with an
+/// invalid corner are ignored.
 pub fn residual_penetration(
     scene_positions: &[Point3<f64>],
     scene_triangles: &[[u32; 3]],
@@ -893,8 +896,8 @@ fn inside_when_nudged(
 }
 
 /// Depth of each `flagged` vertex: its distance to the nearest face of another component, or of
-/// its own beyond [`DEPTH_EXCLUDED_RINGS`] rings of it that faces its normal (else any such
-/// face).
+/// its own component, not incident to it ([`DEPTH_EXCLUDED_RINGS`]), that faces its normal
+/// (else any such face).
 fn flagged_depths(
     winding: &WindingNumber,
     topo: &Topology,
