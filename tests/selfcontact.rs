@@ -185,10 +185,10 @@ fn bending_capsule_fold() {
 /// the issue note): up to 6 penetrating vertices (CoR; DQS 4) at 120-150°, none deeper than
 /// 0.23 h (DQS 0.13 h), and the temporal ratio reaches 22 (the input folds over along `d̂` at
 /// the inner elbow, and a vertex the crease cut moves across jumps by about 2 h). Without the
-/// turn guard 15 and 9 faces
-/// turned at the crease's bottom (see [`the_turn_guard_keeps_faces_from_turning`]; before the
-/// amplitude faded across the crease: 17 and 19; with `τ = 0`: CoR 30, DQS 22; before the
-/// buried band got the crease's intersection terms: CoR 57, DQS 61).
+/// turn guard 15 and 9 faces turned at the crease's bottom (see
+/// [`the_turn_guard_keeps_faces_from_turning`]; before the amplitude faded across the crease:
+/// 17 and 19; with `τ = 0`: CoR 30, DQS 22; before the buried band got the crease's
+/// intersection terms: CoR 57, DQS 61).
 fn volume_preserving_input(method: Method) {
     let r = run_with("bending_capsule", 31, &[], method);
     assert!(
@@ -572,8 +572,9 @@ impl CapsuleFold {
 }
 
 /// Exchanging the roles of the two working regions (`W1 ↔ W2`, `β → 1 - β`,
-/// `d̂_12 → -d̂_12`, `k̄ → 1 - k̄`) describes the same fold: the crease cut, the contact between the truncated
-/// parts, `σ d̂`, the blend, the volume solve and the turn guard must give the same surface.
+/// `d̂_12 → -d̂_12`, `k̄ → 1 - k̄`) describes the same fold: the crease cut, the contact
+/// between the truncated parts, `σ d̂`, the blend, the volume solve and the turn guard must
+/// give the same surface.
 /// Bending capsule with LBS and CoR input, one material and a stiffer W2, every frame with a
 /// fold (from frame 8 of 31 to 150°): the same cut (complemented), the same zones (swapped),
 /// the same positions. Measured: 6.7e-15 h at most.

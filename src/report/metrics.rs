@@ -46,15 +46,6 @@ pub const PENETRATION_NUDGE: f64 = 0.05;
 /// inside another body or another part of its own body (2).
 pub const PENETRATION_THRESHOLD: f64 = 1.5;
 
-/// Topological rings around a penetrating vertex whose faces are never taken as the penetrated
-/// surface of the vertex's own connected component (see [`residual_penetration`]): 0, only the
-/// faces at the vertex itself. A vertex under a neighbour's face folded over it (a skinning's
-/// local fold on a coarse mesh) is inside twice by a fraction of an edge, and that face is the
-/// one it penetrates; with 3 rings excluded, as before, its depth was the distance to the first
-/// facing face beyond them, about the rings' radius (CesiumMan: 3.0-4.4 h reported for vertices
-/// 0.07-0.3 h under a face one or two rings away).
-pub const DEPTH_EXCLUDED_RINGS: usize = 0;
-
 /// Faces per BVH leaf at most.
 const LEAF_SIZE: usize = 4;
 
@@ -776,10 +767,13 @@ pub struct Penetration {
 /// that can be the penetrated surface:
 /// - every face of another connected component (topology welded by exactly equal positions,
 ///   so split seams do not separate a body);
-/// - a face of the vertex's own component that is not one of the vertex's own faces
-///   ([`DEPTH_EXCLUDED_RINGS`] = 0) and faces the vertex: its unit normal has a negative dot
-///   product with the vertex normal, as the two sides of a self-contact do, and as a face
-///   folded over the vertex does; without such a face, the facing condition is dropped.
+/// - a face of the vertex's own component that is not one of the vertex's own faces and faces
+///   the vertex: its unit normal has a negative dot product with the vertex normal, as the two
+///   sides of a self-contact do, and as a face folded over the vertex does; without such a
+///   face, the facing condition is dropped. (Excluding the faces within 3 rings of the vertex
+///   instead, as this did until the thirteenth session, made a vertex under a neighbour's face
+///   folded over it, a skinning's local fold on a coarse mesh, read about the rings' radius
+///   deep: CesiumMan 3.0-6.1 h for vertices 0.07-0.3 h under a face one or two rings away.)
 ///
 /// So depths against other bodies are exact, and self-contact depths are those of the
 /// opposing side of the fold; 0 when no face qualifies. On a closed mesh the depth is at most
@@ -896,8 +890,7 @@ fn inside_when_nudged(
 }
 
 /// Depth of each `flagged` vertex: its distance to the nearest face of another component, or of
-/// its own component, not incident to it ([`DEPTH_EXCLUDED_RINGS`]), that faces its normal
-/// (else any such face).
+/// its own component, not incident to it, that faces its normal (else any such face).
 fn flagged_depths(
     winding: &WindingNumber,
     topo: &Topology,
@@ -918,12 +911,7 @@ fn flagged_depths(
         .map(|&(v, n)| {
             let wv = topo.welded[v as usize];
             let comp = topo.component[wv as usize];
-            let rings = topo.rings(wv, DEPTH_EXCLUDED_RINGS);
-            let near = |f: u32| {
-                topo.face_welded[f as usize]
-                    .iter()
-                    .any(|c| rings.binary_search(c).is_ok())
-            };
+            let near = |f: u32| topo.face_welded[f as usize].contains(&wv);
             let other = |f: u32| topo.face_component(f) != comp;
             let p = &positions[v as usize];
             winding
@@ -1001,9 +989,6 @@ struct Topology {
     face_welded: Vec<[u32; 3]>,
     /// Connected component of each welded vertex (over the valid faces).
     component: Vec<u32>,
-    /// CSR adjacency over the valid faces' edges.
-    offsets: Vec<usize>,
-    neighbors: Vec<u32>,
 }
 
 impl Topology {
@@ -1033,7 +1018,6 @@ impl Topology {
                 })
             })
             .collect();
-        let nw = count as usize;
         let face_welded: Vec<[u32; 3]> = triangles
             .iter()
             .map(|t| t.map(|i| welded.get(i as usize).copied().unwrap_or(u32::MAX)))
@@ -1048,13 +1032,10 @@ impl Topology {
             }
             x
         }
-        let mut edges: Vec<(u32, u32)> = Vec::new();
         for (t, _) in face_welded.iter().zip(valid).filter(|(_, &v)| v) {
             for k in 0..3 {
                 let (a, b) = (t[k], t[(k + 1) % 3]);
                 if a != b {
-                    edges.push((a, b));
-                    edges.push((b, a));
                     let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
                     if ra != rb {
                         parent[ra.max(rb) as usize] = ra.min(rb);
@@ -1063,22 +1044,10 @@ impl Topology {
             }
         }
         let component: Vec<u32> = (0..count).map(|x| find(&mut parent, x)).collect();
-        edges.sort_unstable();
-        edges.dedup();
-        let mut offsets = vec![0usize; nw + 1];
-        for &(a, _) in &edges {
-            offsets[a as usize + 1] += 1;
-        }
-        for i in 0..nw {
-            offsets[i + 1] += offsets[i];
-        }
-        let neighbors = edges.iter().map(|&(_, b)| b).collect();
         Self {
             welded,
             face_welded,
             component,
-            offsets,
-            neighbors,
         }
     }
 
@@ -1086,27 +1055,6 @@ impl Topology {
     fn face_component(&self, f: u32) -> u32 {
         let w = self.face_welded[f as usize][0];
         self.component.get(w as usize).copied().unwrap_or(u32::MAX)
-    }
-
-    /// Welded vertices within `k` rings of `w` (including `w`), sorted.
-    fn rings(&self, w: u32, k: usize) -> Vec<u32> {
-        let mut seen = vec![w];
-        let mut frontier = vec![w];
-        for _ in 0..k {
-            let mut next = Vec::new();
-            for &x in &frontier {
-                let (lo, hi) = (self.offsets[x as usize], self.offsets[x as usize + 1]);
-                for &y in &self.neighbors[lo..hi] {
-                    if !seen.contains(&y) && !next.contains(&y) {
-                        next.push(y);
-                    }
-                }
-            }
-            seen.extend_from_slice(&next);
-            frontier = next;
-        }
-        seen.sort_unstable();
-        seen
     }
 }
 
