@@ -237,19 +237,107 @@ impl TriangleBvh {
         R: Send,
         F: Fn(u32, u32) -> Option<R> + Sync,
     {
-        let pairs = self.pairs_in_tree_order(other);
-        let keep = |&(a, b): &(u32, u32)| visit(a, b).map(|r| (a, b, r));
-        let mut out: Vec<(u32, u32, R)> = if pairs.len() < PARALLEL_PAIRS {
-            pairs.iter().filter_map(keep).collect()
-        } else {
-            pairs
-                .par_iter()
-                .with_min_len(PARALLEL_PAIRS / 4)
-                .filter_map(keep)
-                .collect()
+        visit_sorted(&self.pairs_in_tree_order(other), visit)
+    }
+
+    /// Marks which faces of the tree belong to set A (`label(face) == 1`) and to set B
+    /// (`== 2`), for [`TriangleBvh::pairs_between_sets`]. Pose-independent: compute once.
+    pub fn face_sets(&self, label: impl Fn(u32) -> u8) -> FaceSets {
+        let slot_bits: Vec<u8> = self
+            .faces
+            .iter()
+            .enumerate()
+            .map(|(slot, &f)| match label(f) {
+                _ if self.live.as_ref().is_some_and(|l| !l[slot]) => 0,
+                1 => SET_A,
+                2 => SET_B,
+                _ => 0,
+            })
+            .collect();
+        let mut node_bits = vec![0u8; self.nodes.len()];
+        for i in (0..self.nodes.len()).rev() {
+            let n = self.nodes[i];
+            let (first, count) = (n.first as usize, n.count as usize);
+            node_bits[i] = if count > 0 {
+                slot_bits[first..first + count].iter().fold(0, |a, b| a | b)
+            } else {
+                node_bits[first] | node_bits[first + 1]
+            };
+        }
+        FaceSets {
+            node_bits,
+            slot_bits,
+        }
+    }
+
+    /// [`TriangleBvh::overlapping_pairs`] between two disjoint sets of this tree's faces: the
+    /// pairs `(face of A, face of B)` whose boxes overlap, mapped through `visit`, sorted by
+    /// pair. The same pairs as between two trees built over each set (node boxes here also
+    /// cover faces of neither set, which only costs box tests), with one refit for both sets;
+    /// one tree over a whole body serves every joint's two parts (2021 Sec. 6 detection).
+    /// `sets` must come from [`TriangleBvh::face_sets`] on this tree.
+    pub fn pairs_between_sets<R, F>(&self, sets: &FaceSets, visit: F) -> Vec<R>
+    where
+        R: Send,
+        F: Fn(u32, u32) -> Option<R> + Sync,
+    {
+        let mut pairs: Vec<(u32, u32)> = Vec::new();
+        let has = |node: u32, set: u8| sets.node_bits[node as usize] & set != 0;
+        if self.nodes.is_empty() || !(has(0, SET_A) && has(0, SET_B)) {
+            return Vec::new();
+        }
+        // Node pairs (node holding A faces, node holding B faces) with overlapping boxes.
+        let mut stack = Vec::with_capacity(64);
+        stack.push((0u32, 0u32));
+        let push = |stack: &mut Vec<(u32, u32)>, a: u32, b: u32| {
+            if has(a, SET_A)
+                && has(b, SET_B)
+                && self.nodes[a as usize]
+                    .aabb
+                    .overlaps(&self.nodes[b as usize].aabb)
+            {
+                stack.push((a, b));
+            }
         };
-        out.sort_unstable_by_key(|&(a, b, _)| (a, b));
-        out.into_iter().map(|(_, _, r)| r).collect()
+        while let Some((a, b)) = stack.pop() {
+            let (na, nb) = (self.nodes[a as usize], self.nodes[b as usize]);
+            match (na.count > 0, nb.count > 0) {
+                (true, true) => self.set_leaf_pairs(sets, &na, &nb, &mut pairs),
+                (false, true) => {
+                    push(&mut stack, na.first, b);
+                    push(&mut stack, na.first + 1, b);
+                }
+                (true, false) => {
+                    push(&mut stack, a, nb.first);
+                    push(&mut stack, a, nb.first + 1);
+                }
+                (false, false) => {
+                    for ca in [na.first, na.first + 1] {
+                        for cb in [nb.first, nb.first + 1] {
+                            push(&mut stack, ca, cb);
+                        }
+                    }
+                }
+            }
+        }
+        visit_sorted(&pairs, visit)
+    }
+
+    /// The overlapping face pairs of two leaves, A faces of `na` against B faces of `nb`.
+    fn set_leaf_pairs(&self, sets: &FaceSets, na: &Node, nb: &Node, out: &mut Vec<(u32, u32)>) {
+        let ra = na.first as usize..(na.first + na.count) as usize;
+        let rb = nb.first as usize..(nb.first + nb.count) as usize;
+        for i in ra.filter(|&i| sets.slot_bits[i] == SET_A) {
+            let bi = &self.face_boxes[i];
+            if !bi.overlaps(&nb.aabb) {
+                continue;
+            }
+            for j in rb.clone().filter(|&j| sets.slot_bits[j] == SET_B) {
+                if bi.overlaps(&self.face_boxes[j]) {
+                    out.push((self.faces[i], self.faces[j]));
+                }
+            }
+        }
     }
 
     fn pairs_in_tree_order(&self, other: &TriangleBvh) -> Vec<(u32, u32)> {
@@ -386,6 +474,40 @@ impl TriangleBvh {
             stack.extend(kids.iter().filter_map(|&(c, t)| t.map(|t| (c, t))));
         }
     }
+}
+
+/// Set A's bit in [`FaceSets`].
+const SET_A: u8 = 1;
+/// Set B's bit in [`FaceSets`].
+const SET_B: u8 = 2;
+
+/// Two disjoint sets of a tree's faces, marked on its leaf slots and nodes (which sets a
+/// node's subtree holds): [`TriangleBvh::face_sets`], [`TriangleBvh::pairs_between_sets`].
+#[derive(Clone, Debug)]
+pub struct FaceSets {
+    node_bits: Vec<u8>,
+    slot_bits: Vec<u8>,
+}
+
+/// `pairs` mapped through `visit` (which may drop a pair), sorted by pair; in parallel when
+/// there are many, the output independent of the order of `pairs` and of the thread count.
+fn visit_sorted<R, F>(pairs: &[(u32, u32)], visit: F) -> Vec<R>
+where
+    R: Send,
+    F: Fn(u32, u32) -> Option<R> + Sync,
+{
+    let keep = |&(a, b): &(u32, u32)| visit(a, b).map(|r| (a, b, r));
+    let mut out: Vec<(u32, u32, R)> = if pairs.len() < PARALLEL_PAIRS {
+        pairs.iter().filter_map(keep).collect()
+    } else {
+        pairs
+            .par_iter()
+            .with_min_len(PARALLEL_PAIRS / 4)
+            .filter_map(keep)
+            .collect()
+    };
+    out.sort_unstable_by_key(|&(a, b, _)| (a, b));
+    out.into_iter().map(|(_, _, r)| r).collect()
 }
 
 /// The box of a face; empty for a face collapsed to a point (its three corners equal, e.g.
@@ -618,6 +740,60 @@ mod tests {
             ta.overlapping_pairs(&tb, |x, y| Some((x, y))),
             brute(&moved, &b)
         );
+    }
+
+    /// Two wavy grids in one mesh (the second's faces after the first's).
+    fn two_grids(phase: f64) -> (Vec<Point3<f64>>, Vec<[u32; 3]>) {
+        let (mut pos, mut tris) = wavy(12, 0.0, phase);
+        let (p2, t2) = wavy(10, 0.02, 1.0 + phase);
+        let offset = pos.len() as u32;
+        pos.extend(p2);
+        tris.extend(t2.iter().map(|t| t.map(|v| v + offset)));
+        (pos, tris)
+    }
+
+    /// The pairs between two face sets of one tree are those of two trees built over each set
+    /// (and brute force's), at the build and after a refit; with the sets interleaved in one
+    /// grid too, where both sets share every node.
+    #[test]
+    fn pairs_between_sets_match_two_trees_and_brute_force() {
+        let first = wavy(12, 0.0, 0.0).1.len() as u32;
+        let labelings: [&dyn Fn(u32) -> u8; 2] = [
+            // The first grid against the second, every fifth face in neither set.
+            &|f: u32| match (f < first, f % 5 == 0) {
+                (_, true) => 0,
+                (true, false) => 1,
+                (false, false) => 2,
+            },
+            // Interleaved in strips across both grids.
+            &|f: u32| [1, 2, 0][(f / 3 % 3) as usize],
+        ];
+        for label in labelings {
+            let mesh = two_grids(0.0);
+            let all: Vec<u32> = (0..mesh.1.len() as u32).collect();
+            let set =
+                |k: u8| -> Vec<u32> { all.iter().copied().filter(|&f| label(f) == k).collect() };
+            let (a, b) = (set(1), set(2));
+            let mut tree = TriangleBvh::build(&mesh.0, &mesh.1, &all);
+            let sets = tree.face_sets(label);
+            for positions in [mesh.0.clone(), two_grids(1.5).0] {
+                tree.refit(&positions, &mesh.1);
+                let expected: Vec<(u32, u32)> = a
+                    .iter()
+                    .flat_map(|&fa| b.iter().map(move |&fb| (fa, fb)))
+                    .filter(|&(fa, fb)| {
+                        let bx = |f: u32| face_box(&positions, &mesh.1[f as usize]);
+                        bx(fa).overlaps(&bx(fb))
+                    })
+                    .collect();
+                assert!(!expected.is_empty());
+                let got = tree.pairs_between_sets(&sets, |x, y| Some((x, y)));
+                assert_eq!(got, expected);
+                let ta = TriangleBvh::build(&positions, &mesh.1, &a);
+                let tb = TriangleBvh::build(&positions, &mesh.1, &b);
+                assert_eq!(ta.candidate_pairs(&tb), expected);
+            }
+        }
     }
 
     /// Every face hit by the vertical ray through `(x, y)`, at its parameter (brute force).

@@ -1,9 +1,10 @@
 //! Pose-independent data of one surface (its faces, edges, a BVH built on a reference pose) and
 //! its per-frame counterpart.
 
-use super::bvh::TriangleBvh;
+use super::bvh::{FaceSets, TriangleBvh};
 use super::IntersectError;
 use nalgebra::Point3;
+use std::borrow::Cow;
 
 /// The pose-independent part of one surface: a triangle mesh, or the subset of its faces that
 /// forms one side of a self-contact (2021 Sec. 6). Build once per rig, share between frames.
@@ -185,14 +186,40 @@ impl MeshIndex {
         &'a self,
         positions: &'a [Point3<f64>],
     ) -> Result<PosedMesh<'a>, IntersectError> {
-        self.check_frame(positions)?;
-        let mut bvh = self.bvh.clone();
-        bvh.refit(positions, &self.triangles);
         Ok(PosedMesh {
             index: self,
             positions,
-            bvh,
+            bvh: Cow::Owned(self.refit_tree(positions)?),
         })
+    }
+
+    /// The BVH refitted to `positions`, to keep and view with [`MeshIndex::posed_with`] while
+    /// the positions do not change (one refit shared by several queries).
+    pub fn refit_tree(&self, positions: &[Point3<f64>]) -> Result<TriangleBvh, IntersectError> {
+        self.check_frame(positions)?;
+        let mut bvh = self.bvh.clone();
+        bvh.refit(positions, &self.triangles);
+        Ok(bvh)
+    }
+
+    /// The surface at `positions` with `tree`, which [`MeshIndex::refit_tree`] returned for
+    /// these same positions (a tree of another frame would make queries miss).
+    pub fn posed_with<'a>(
+        &'a self,
+        positions: &'a [Point3<f64>],
+        tree: &'a TriangleBvh,
+    ) -> PosedMesh<'a> {
+        PosedMesh {
+            index: self,
+            positions,
+            bvh: Cow::Borrowed(tree),
+        }
+    }
+
+    /// Two disjoint sets of this surface's faces (`label(face)` 1 and 2) marked in its BVH, for
+    /// [`crate::intersect::Intersections::between_sets`].
+    pub fn face_sets(&self, label: impl Fn(u32) -> u8) -> FaceSets {
+        self.bvh.face_sets(label)
     }
 
     /// The surface at one frame with a BVH rebuilt from scratch (tighter after large motions).
@@ -205,7 +232,7 @@ impl MeshIndex {
         Ok(PosedMesh {
             index: self,
             positions,
-            bvh,
+            bvh: Cow::Owned(bvh),
         })
     }
 
@@ -225,7 +252,7 @@ impl MeshIndex {
 pub struct PosedMesh<'a> {
     index: &'a MeshIndex,
     positions: &'a [Point3<f64>],
-    bvh: TriangleBvh,
+    bvh: Cow<'a, TriangleBvh>,
 }
 
 impl<'a> PosedMesh<'a> {

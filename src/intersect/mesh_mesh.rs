@@ -1,6 +1,7 @@
 //! Edge–face intersections between two surfaces and the intersection curves they delimit
 //! (2021 Sec. 4, Algorithm 1 line 3: "compute and store edge-face intersection points").
 
+use super::bvh::FaceSets;
 use super::curves::{chain, Curve};
 use super::index::{canonical, MeshIndex, PosedMesh};
 use super::predicates::{edge_edge, FacePlane, SoSSign};
@@ -124,6 +125,18 @@ impl Intersections {
         Ok(compute(part1, part2, true))
     }
 
+    /// [`Intersections::self_contact`] between two disjoint sets of one surface's faces,
+    /// marked in its BVH ([`crate::intersect::MeshIndex::face_sets`]): the same result as
+    /// between two indices over each set, with one refit of one tree for both.
+    pub fn between_sets(mesh: &PosedMesh, sets: &FaceSets) -> Self {
+        let counters = Counters::default();
+        let pairs = mesh.bvh().pairs_between_sets(sets, |fa, fb| {
+            pair_segment(mesh, fa, mesh, fb, true, &counters)
+        });
+        let degenerate = mesh.index().index_degenerate_faces();
+        assemble(pairs, degenerate, &counters)
+    }
+
     /// True when nothing intersects.
     pub fn is_empty(&self) -> bool {
         self.hits.is_empty()
@@ -192,21 +205,35 @@ struct PairSegment {
 fn compute(a: &PosedMesh, b: &PosedMesh, self_contact: bool) -> Intersections {
     let counters = Counters::default();
     let pairs = a.bvh().overlapping_pairs(b.bvh(), |fa, fb| {
-        Counters::add(&counters.candidates, 1);
-        let ctx = Pair::new(a, fa, b, fb);
-        if self_contact && ctx.shares_vertex() {
-            Counters::add(&counters.adjacent, 1);
-            return None;
-        }
-        ctx.segment(&counters)
+        pair_segment(a, fa, b, fb, self_contact, &counters)
     });
-    assemble(pairs, a, b, &counters)
+    let degenerate = a.index().index_degenerate_faces() + b.index().index_degenerate_faces();
+    assemble(pairs, degenerate, &counters)
 }
 
+/// The exact test of a candidate pair (skipped when `self_contact` and the faces share a
+/// vertex).
+fn pair_segment(
+    a: &PosedMesh,
+    fa: u32,
+    b: &PosedMesh,
+    fb: u32,
+    self_contact: bool,
+    counters: &Counters,
+) -> Option<PairSegment> {
+    Counters::add(&counters.candidates, 1);
+    let ctx = Pair::new(a, fa, b, fb);
+    if self_contact && ctx.shares_vertex() {
+        Counters::add(&counters.adjacent, 1);
+        return None;
+    }
+    ctx.segment(counters)
+}
+
+/// Hits shared between the pairs' segments get one index; the segments chained into curves.
 fn assemble(
     pairs: Vec<PairSegment>,
-    a: &PosedMesh,
-    b: &PosedMesh,
+    index_degenerate: usize,
     counters: &Counters,
 ) -> Intersections {
     // Every hit with the slot (pair, end) it fills, sorted by key: equal keys are the same hit
@@ -242,8 +269,7 @@ fn assemble(
             coplanar_pairs: load(&counters.coplanar),
             degenerate_pairs: load(&counters.degenerate),
             symbolic_ties: load(&counters.ties),
-            index_degenerate_faces: a.index().index_degenerate_faces()
-                + b.index().index_degenerate_faces(),
+            index_degenerate_faces: index_degenerate,
             anomalous_pairs: load(&counters.anomalous),
         },
         hits,

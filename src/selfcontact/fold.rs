@@ -21,7 +21,7 @@ use crate::deform::region::{bulge_height, shape_region};
 use crate::deform::volume::RootKind;
 use crate::deform::{DeformParams, DeformStats, RegionDeformation, RegionFrame, WorkingRegion};
 use crate::heat::{Boundary, EdgePoint};
-use crate::intersect::{Intersections, MeshIndex};
+use crate::intersect::{FaceSets, Intersections, MeshIndex, PosedMesh};
 use crate::pass::StageTimings;
 use nalgebra::{Point3, Vector3};
 use std::collections::HashMap;
@@ -189,7 +189,11 @@ pub struct FoldPre {
     w1: WorkingRegion,
     w2: WorkingRegion,
     shared: WorkingRegion,
-    detect: [MeshIndex; 2],
+    /// Faces at rest: 1 on W1's side, 2 on W2's, 0 elsewhere ([`rest_labels`]).
+    labels: Vec<u8>,
+    /// Index over the faces of both sides, marked in its tree ([`FoldPre::detect`]).
+    detect: MeshIndex,
+    detect_sets: FaceSets,
     faces: Vec<u32>,
     /// BVH over `faces` (at rest), restricted to each truncated part per frame.
     parts_tree: crate::intersect::bvh::TriangleBvh,
@@ -308,7 +312,11 @@ impl FoldPre {
         faces.sort_unstable();
         faces.dedup();
         let labels = rest_labels(triangles, &regions);
-        let detect = MeshIndex::self_contact_parts(rest, triangles, &labels)?;
+        let sided: Vec<u32> = (0..triangles.len() as u32)
+            .filter(|&f| labels[f as usize] != 0)
+            .collect();
+        let detect = MeshIndex::with_faces(rest, triangles, &sided)?;
+        let detect_sets = detect.face_sets(|f| labels[f as usize]);
         // The indices were checked by `detect` (over the same faces).
         let parts_tree = crate::intersect::bvh::TriangleBvh::build(rest, triangles, &faces);
         // Only the topology is needed here (no factorization of the whole mesh).
@@ -326,7 +334,9 @@ impl FoldPre {
             w1,
             w2,
             shared,
+            labels,
             detect,
+            detect_sets,
             faces,
             parts_tree,
             closed,
@@ -362,19 +372,34 @@ impl FoldPre {
     }
 
     /// Detection with the rest partition: `None` when the fold does not intersect itself at
-    /// `positions` (then nothing else of the fold needs computing, not even normals).
-    pub fn detect(
-        &self,
-        positions: &[Point3<f64>],
-        triangles: &[[u32; 3]],
-    ) -> Result<Option<Detection>, FoldError> {
+    /// `positions` (then nothing else of the fold needs computing, not even normals). The
+    /// one-off form of [`FoldPre::detect_on`], on the fold's own tree; the self-contact pass
+    /// shares one refit tree per body between its joints.
+    pub fn detect(&self, positions: &[Point3<f64>]) -> Result<Option<Detection>, FoldError> {
         let clock = Instant::now();
-        Ok(
-            intersecting_vertices(self, positions, triangles)?.map(|vertices| Detection {
-                vertices,
-                seconds: clock.elapsed().as_secs_f64(),
-            }),
-        )
+        let posed = self.detect.pose(positions)?;
+        Ok(self.detect_on(&posed, &self.detect_sets, clock))
+    }
+
+    /// The two sides of the rest partition (W1's faces 1, W2's 2) marked in `body`'s tree, for
+    /// [`FoldPre::detect_on`]: once per rig.
+    pub fn face_sets(&self, body: &MeshIndex) -> FaceSets {
+        body.face_sets(|f| self.labels.get(f as usize).copied().unwrap_or(0))
+    }
+
+    /// Detection on the fold's body posed with its tree refit (`sets` from
+    /// [`FoldPre::face_sets`] on that body): the vertices of the faces crossing the other
+    /// side, `None` when none do. `started`: when the detection began (its refit included).
+    pub fn detect_on(
+        &self,
+        body: &PosedMesh,
+        sets: &FaceSets,
+        started: Instant,
+    ) -> Option<Detection> {
+        intersecting_vertices(body, sets).map(|vertices| Detection {
+            vertices,
+            seconds: started.elapsed().as_secs_f64(),
+        })
     }
 }
 
@@ -661,21 +686,14 @@ fn with_buried(
     out
 }
 
-/// Detection with the rest partition: the vertices of the faces crossing the other part, or
+/// Detection with the rest partition: the vertices of the faces crossing the other side, or
 /// `None` when the fold does not intersect itself.
-fn intersecting_vertices(
-    pre: &FoldPre,
-    positions: &[Point3<f64>],
-    triangles: &[[u32; 3]],
-) -> Result<Option<Vec<u32>>, FoldError> {
-    let parts = [
-        pre.detect[0].pose(positions)?,
-        pre.detect[1].pose(positions)?,
-    ];
-    let ints = Intersections::self_contact(&parts[0], &parts[1])?;
+fn intersecting_vertices(body: &PosedMesh, sets: &FaceSets) -> Option<Vec<u32>> {
+    let ints = Intersections::between_sets(body, sets);
     if ints.is_empty() {
-        return Ok(None);
+        return None;
     }
+    let triangles = body.triangles();
     let mut vertices: Vec<u32> = ints
         .segments
         .iter()
@@ -687,7 +705,7 @@ fn intersecting_vertices(
         .collect();
     vertices.sort_unstable();
     vertices.dedup();
-    Ok(Some(vertices))
+    Some(vertices)
 }
 
 /// Sec. 4.2-4.4 between the truncated parts, with the skeleton's (or the user's) direction.

@@ -1,27 +1,31 @@
 //! The per-frame self-contact pass of a rig (2021 Sec. 6): every joint pair whose shared
 //! region folds into contact is resolved, one after the other on the same positions (the
 //! output of a pair is the input of the next, in a fixed order), each only when it
-//! intersects itself; a frame without any fold costs one BVH refit and one self-overlap query
-//! per pair.
+//! intersects itself; a frame without any fold costs one BVH refit per body and one
+//! self-overlap query per pair.
 
 use super::direction::{BoneAxes, DirectionSource, Meeting};
 use super::fold::{
-    resolve_detected, FoldError, FoldInput, FoldOutput, FoldParams, FoldPre, FoldTimings,
+    resolve_detected, Detection, FoldError, FoldInput, FoldOutput, FoldParams, FoldPre, FoldTimings,
 };
 use super::regions::{derive_pairs_reporting, RegionOptions};
 use super::turn_guard::TurnReference;
 use super::SelfContactError;
+use crate::intersect::{FaceSets, MeshIndex, TriangleBvh};
 use crate::mesh::operators::{vertex_normals, NormalWeighting};
 use crate::mesh::WeldedMesh;
 use crate::rig::{Pose, Rig};
 use crate::skinning::{cofactor, unit_or_zero};
 use nalgebra::{Matrix3, Point3, Vector3};
+use std::time::Instant;
 
 /// One joint pair of one body, precomputed.
 #[derive(Debug)]
 struct Fold {
     body: usize,
     pre: FoldPre,
+    /// The fold's two sides marked in its body's tree ([`SelfContactPass::bodies`]).
+    sets: FaceSets,
     axes: BoneAxes,
     direction: DirectionSource,
 }
@@ -64,6 +68,10 @@ pub struct SelfContactPass {
     folds: Vec<Fold>,
     params: FoldParams,
     triangles: Vec<Vec<[u32; 3]>>,
+    /// Per body: an index over all its faces (BVH built at rest), whose tree is refit once per
+    /// frame and body and shared by the detection of every fold of the body until a fold moves
+    /// it; `None` for a body without a fold.
+    bodies: Vec<Option<MeshIndex>>,
     /// Welded rest positions per body, and the rest pose ([`DirectionSource::Motion`]).
     rest: Vec<Vec<Point3<f64>>>,
     /// Per body: the welded rest normals and each welded vertex's file vertex (its weights),
@@ -119,19 +127,31 @@ impl SelfContactPass {
             )));
         }
         let mut folds = Vec::new();
+        let mut bodies: Vec<Option<MeshIndex>> = welded.iter().map(|_| None).collect();
         let (pairs, skipped) = derive_pairs_reporting(rig, welded, options)?;
         for regions in pairs {
             let body = regions.pair.body;
-            let axes = BoneAxes::new(rig, &welded[body], &regions);
             let name = regions.pair.name.clone();
+            let fail = |source: FoldError| SelfPassError::Fold {
+                name: name.clone(),
+                source,
+            };
+            let index = match &mut bodies[body] {
+                Some(index) => index,
+                slot => slot.insert(
+                    MeshIndex::new(&rest[body], &welded[body].triangles)
+                        .map_err(|e| fail(e.into()))?,
+                ),
+            };
+            let axes = BoneAxes::new(rig, &welded[body], &regions);
             let direction = directions
                 .iter()
                 .find(|(n, _)| *n == name)
                 .map_or(DirectionSource::Skeleton, |(_, d)| *d);
-            let pre = FoldPre::new(&rest[body], &welded[body].triangles, regions)
-                .map_err(|source| SelfPassError::Fold { name, source })?;
+            let pre = FoldPre::new(&rest[body], &welded[body].triangles, regions).map_err(fail)?;
             folds.push(Fold {
                 body,
+                sets: pre.face_sets(index),
                 pre,
                 axes,
                 direction,
@@ -142,6 +162,7 @@ impl SelfContactPass {
             folds,
             params,
             triangles,
+            bodies,
             rest: rest.to_vec(),
             rest_normals: rest
                 .iter()
@@ -219,11 +240,17 @@ impl SelfContactPass {
         // The positions before any fold, copied when the first fold is detected: the turn
         // guard's reference.
         let mut frame_input = None;
+        let mut trees: Vec<Option<TriangleBvh>> = vec![None; positions.len()];
         for _ in 0..self.passes {
             let mut changed = false;
             for fold in &self.folds {
-                changed |=
-                    self.sweep_fold(rig, fold, pose, positions, &mut frame_input, &mut out)?;
+                let frame = Frame {
+                    rig,
+                    pose,
+                    positions: &mut *positions,
+                    trees: &mut trees,
+                };
+                changed |= self.sweep_fold(fold, frame, &mut frame_input, &mut out)?;
             }
             // Nothing moved: a further sweep would find the same.
             if !changed {
@@ -270,16 +297,40 @@ impl SelfContactPass {
         })
     }
 
+    /// Detection of `fold` on its body's tree, refit here unless an earlier fold's detection
+    /// refit it at these positions.
+    fn detect(
+        &self,
+        fold: &Fold,
+        pos: &[Point3<f64>],
+        tree: &mut Option<TriangleBvh>,
+    ) -> Result<Option<Detection>, FoldError> {
+        let clock = Instant::now();
+        let Some(index) = &self.bodies[fold.body] else {
+            return Ok(None);
+        };
+        let tree = match tree {
+            Some(tree) => tree,
+            slot => slot.insert(index.refit_tree(pos)?),
+        };
+        let posed = index.posed_with(pos, tree);
+        Ok(fold.pre.detect_on(&posed, &fold.sets, clock))
+    }
+
     /// One fold in one sweep; whether it moved the body.
     fn sweep_fold(
         &self,
-        rig: &Rig,
         fold: &Fold,
-        pose: &Pose,
-        positions: &mut [Vec<Point3<f64>>],
+        frame: Frame,
         frame_input: &mut Option<Vec<Vec<Point3<f64>>>>,
         out: &mut SelfPassOutput,
     ) -> Result<bool, SelfPassError> {
+        let Frame {
+            rig,
+            pose,
+            positions,
+            trees,
+        } = frame;
         let name = &fold.pre.regions.pair.name;
         let tris = &self.triangles[fold.body];
         let pos = &positions[fold.body];
@@ -291,7 +342,8 @@ impl SelfContactPass {
             return Ok(false);
         }
         // Detection first: a joint that does not fold into itself costs its detection only.
-        let Some(detection) = fold.pre.detect(pos, tris).map_err(fail)? else {
+        let detection = self.detect(fold, pos, &mut trees[fold.body]);
+        let Some(detection) = detection.map_err(fail)? else {
             return Ok(false);
         };
         let Some(direction) = self.direction(fold, pose, &detection.vertices) else {
@@ -332,6 +384,7 @@ impl SelfContactPass {
         out.timings += o.timings;
         let moved = !o.unbalanced;
         positions[fold.body].clone_from(&o.positions);
+        trees[fold.body] = None;
         out.folds.push(FoldReport {
             body: fold.body,
             name: name.clone(),
@@ -340,6 +393,15 @@ impl SelfContactPass {
         });
         Ok(moved)
     }
+}
+
+/// One frame of the pass as a fold sweeps it: the pose, every body's positions (updated fold
+/// after fold) and each body's detection tree refit at them (`None`: not refit yet).
+struct Frame<'f> {
+    rig: &'f Rig,
+    pose: &'f Pose,
+    positions: &'f mut [Vec<Point3<f64>>],
+    trees: &'f mut [Option<TriangleBvh>],
 }
 
 /// The turn guard's reference of one body in one pose: each welded vertex's rest normal (the
