@@ -160,9 +160,11 @@ impl CutMesh {
         let mut mesh = Self {
             n,
             nodes,
-            triangles: Vec::new(),
-            geometry: Vec::new(),
-            parent: Vec::new(),
+            // About one piece per face (kept, dropped, or split in two where the boundary cuts
+            // off a corner).
+            triangles: Vec::with_capacity(region.triangles.len() + boundary.points.len()),
+            geometry: Vec::with_capacity(region.triangles.len() + boundary.points.len()),
+            parent: Vec::with_capacity(region.triangles.len() + boundary.points.len()),
             role,
             dirichlet_count: boundary.dirichlet_count(),
             mass: vec![0.0; n],

@@ -202,6 +202,23 @@ impl MeshIndex {
         Ok(bvh)
     }
 
+    /// The surface at the positions the index was built (or restricted) at, its tree as it
+    /// is: for an index made for one frame, such as a self-contact's truncated parts
+    /// ([`MeshIndex::self_contact_parts_within`]), which [`MeshIndex::pose`] would refit a
+    /// second time. Other positions would make queries miss.
+    pub fn posed_as_built<'a>(
+        &'a self,
+        positions: &'a [Point3<f64>],
+    ) -> Result<PosedMesh<'a>, IntersectError> {
+        if positions.len() != self.vertex_count {
+            return Err(IntersectError::PositionCount {
+                expected: self.vertex_count,
+                got: positions.len(),
+            });
+        }
+        Ok(self.posed_with(positions, &self.bvh))
+    }
+
     /// The surface at `positions` with `tree`, which [`MeshIndex::refit_tree`] returned for
     /// these same positions (a tree of another frame would make queries miss).
     pub fn posed_with<'a>(

@@ -717,7 +717,11 @@ fn truncated_contact(
     params: &FoldParams,
     tree: Option<&InsideTwice>,
 ) -> Result<Option<Contact>, FoldError> {
-    let posed = [truncated[0].pose(positions)?, truncated[1].pose(positions)?];
+    // The parts were indexed at these positions (`cut_the_crease`): no second refit.
+    let posed = [
+        truncated[0].posed_as_built(positions)?,
+        truncated[1].posed_as_built(positions)?,
+    ];
     let side = |k: usize| SideFrame {
         mesh: &posed[k],
         normals,
