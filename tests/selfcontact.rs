@@ -543,7 +543,7 @@ impl CapsuleFold {
         let direction =
             sign * skeleton_direction(&pose, &self.pair, self.axes.leaf_axis).expect("direction");
         let normals = vertex_normals(&input, &l.triangles[0], NormalWeighting::Area);
-        let detection = pre.detect(&input).expect("detection runs");
+        let detection = pre.detect(&input, &l.triangles[0]).expect("detection runs");
         let out = detection.and_then(|d| {
             resolve_detected(
                 pre,

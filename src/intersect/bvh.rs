@@ -275,34 +275,43 @@ impl TriangleBvh {
     /// pair. The same pairs as between two trees built over each set (node boxes here also
     /// cover faces of neither set, which only costs box tests), with one refit for both sets;
     /// one tree over a whole body serves every joint's two parts (2021 Sec. 6 detection).
-    /// `sets` must come from [`TriangleBvh::face_sets`] on this tree.
-    pub fn pairs_between_sets<R, F>(&self, sets: &FaceSets, visit: F) -> Vec<R>
+    /// `None` when `sets` was not made by [`TriangleBvh::face_sets`] on a tree of this shape.
+    pub fn pairs_between_sets<R, F>(&self, sets: &FaceSets, visit: F) -> Option<Vec<R>>
     where
         R: Send,
         F: Fn(u32, u32) -> Option<R> + Sync,
     {
-        let mut pairs: Vec<(u32, u32)> = Vec::new();
-        let has = |node: u32, set: u8| sets.node_bits[node as usize] & set != 0;
-        if self.nodes.is_empty() || !(has(0, SET_A) && has(0, SET_B)) {
-            return Vec::new();
-        }
-        // Node pairs (node holding A faces, node holding B faces) with overlapping boxes.
+        let fits =
+            sets.node_bits.len() == self.nodes.len() && sets.slot_bits.len() == self.faces.len();
+        fits.then(|| visit_sorted(&self.pairs_where(self, sets), visit))
+    }
+
+    fn pairs_in_tree_order(&self, other: &TriangleBvh) -> Vec<(u32, u32)> {
+        self.pairs_where(other, &EveryFace)
+    }
+
+    /// The face pairs `(slot of self, slot of other)` that `filter` admits and whose boxes
+    /// overlap, in tree order: node pairs with overlapping boxes split depth first (internal
+    /// nodes split, both at once when both are internal), pruned by `filter`'s node test.
+    fn pairs_where(&self, other: &TriangleBvh, filter: &impl PairFilter) -> Vec<(u32, u32)> {
+        let mut pairs = Vec::new();
         let mut stack = Vec::with_capacity(64);
-        stack.push((0u32, 0u32));
         let push = |stack: &mut Vec<(u32, u32)>, a: u32, b: u32| {
-            if has(a, SET_A)
-                && has(b, SET_B)
+            if filter.nodes(a, b)
                 && self.nodes[a as usize]
                     .aabb
-                    .overlaps(&self.nodes[b as usize].aabb)
+                    .overlaps(&other.nodes[b as usize].aabb)
             {
                 stack.push((a, b));
             }
         };
+        if !self.nodes.is_empty() && !other.nodes.is_empty() {
+            push(&mut stack, 0, 0);
+        }
         while let Some((a, b)) = stack.pop() {
-            let (na, nb) = (self.nodes[a as usize], self.nodes[b as usize]);
+            let (na, nb) = (&self.nodes[a as usize], &other.nodes[b as usize]);
             match (na.count > 0, nb.count > 0) {
-                (true, true) => self.set_leaf_pairs(sets, &na, &nb, &mut pairs),
+                (true, true) => self.leaf_pairs(other, na, nb, filter, &mut pairs),
                 (false, true) => {
                     push(&mut stack, na.first, b);
                     push(&mut stack, na.first + 1, b);
@@ -320,84 +329,7 @@ impl TriangleBvh {
                 }
             }
         }
-        visit_sorted(&pairs, visit)
-    }
-
-    /// The overlapping face pairs of two leaves, A faces of `na` against B faces of `nb`.
-    fn set_leaf_pairs(&self, sets: &FaceSets, na: &Node, nb: &Node, out: &mut Vec<(u32, u32)>) {
-        let ra = na.first as usize..(na.first + na.count) as usize;
-        let rb = nb.first as usize..(nb.first + nb.count) as usize;
-        for i in ra.filter(|&i| sets.slot_bits[i] == SET_A) {
-            let bi = &self.face_boxes[i];
-            if !bi.overlaps(&nb.aabb) {
-                continue;
-            }
-            for j in rb.clone().filter(|&j| sets.slot_bits[j] == SET_B) {
-                if bi.overlaps(&self.face_boxes[j]) {
-                    out.push((self.faces[i], self.faces[j]));
-                }
-            }
-        }
-    }
-
-    fn pairs_in_tree_order(&self, other: &TriangleBvh) -> Vec<(u32, u32)> {
-        let mut pairs = Vec::new();
-        if self.nodes.is_empty() || other.nodes.is_empty() {
-            return pairs;
-        }
-        let mut roots = Vec::with_capacity(1);
-        self.push_overlapping(other, 0, 0, &mut roots);
-        if let Some(&(a, b)) = roots.first() {
-            self.traverse_pairs(other, a, b, &mut |fa, fb| pairs.push((fa, fb)));
-        }
         pairs
-    }
-
-    fn push_overlapping(&self, other: &TriangleBvh, a: u32, b: u32, out: &mut Vec<(u32, u32)>) {
-        if self.nodes[a as usize]
-            .aabb
-            .overlaps(&other.nodes[b as usize].aabb)
-        {
-            out.push((a, b));
-        }
-    }
-
-    /// Pushes the overlapping child pairs of an overlapping pair (internal nodes split, both
-    /// at once when both are internal); a leaf pair is kept as is.
-    fn expand(&self, other: &TriangleBvh, a: u32, b: u32, out: &mut Vec<(u32, u32)>) {
-        let (na, nb) = (&self.nodes[a as usize], &other.nodes[b as usize]);
-        match (na.count > 0, nb.count > 0) {
-            (true, true) => out.push((a, b)),
-            (false, true) => {
-                self.push_overlapping(other, na.first, b, out);
-                self.push_overlapping(other, na.first + 1, b, out);
-            }
-            (true, false) => {
-                self.push_overlapping(other, a, nb.first, out);
-                self.push_overlapping(other, a, nb.first + 1, out);
-            }
-            (false, false) => {
-                for ca in [na.first, na.first + 1] {
-                    for cb in [nb.first, nb.first + 1] {
-                        self.push_overlapping(other, ca, cb, out);
-                    }
-                }
-            }
-        }
-    }
-
-    /// Depth-first traversal below an overlapping node pair.
-    fn traverse_pairs(&self, other: &TriangleBvh, a: u32, b: u32, emit: &mut impl FnMut(u32, u32)) {
-        let mut stack = Vec::with_capacity(64);
-        stack.push((a, b));
-        while let Some((a, b)) = stack.pop() {
-            let (na, nb) = (&self.nodes[a as usize], &other.nodes[b as usize]);
-            if na.count > 0 && nb.count > 0 {
-                self.leaf_pairs(other, na, nb, emit);
-            } else {
-                self.expand(other, a, b, &mut stack);
-            }
-        }
     }
 
     fn leaf_pairs(
@@ -405,18 +337,19 @@ impl TriangleBvh {
         other: &TriangleBvh,
         na: &Node,
         nb: &Node,
-        emit: &mut impl FnMut(u32, u32),
+        filter: &impl PairFilter,
+        out: &mut Vec<(u32, u32)>,
     ) {
         let ra = na.first as usize..(na.first + na.count) as usize;
         let rb = nb.first as usize..(nb.first + nb.count) as usize;
-        for i in ra {
+        for i in ra.filter(|&i| filter.first_slot(i)) {
             let bi = &self.face_boxes[i];
             if !bi.overlaps(&nb.aabb) {
                 continue;
             }
-            for j in rb.clone() {
+            for j in rb.clone().filter(|&j| filter.second_slot(j)) {
                 if bi.overlaps(&other.face_boxes[j]) {
-                    emit(self.faces[i], other.faces[j]);
+                    out.push((self.faces[i], other.faces[j]));
                 }
             }
         }
@@ -487,6 +420,44 @@ const SET_B: u8 = 2;
 pub struct FaceSets {
     node_bits: Vec<u8>,
     slot_bits: Vec<u8>,
+}
+
+/// Which node pairs and leaf slots a pair query visits (on top of the box tests).
+trait PairFilter {
+    /// Whether node `a` of the first tree and node `b` of the second may hold a pair.
+    fn nodes(&self, a: u32, b: u32) -> bool;
+    /// Whether leaf slot `i` of the first tree takes part.
+    fn first_slot(&self, i: usize) -> bool;
+    /// Whether leaf slot `j` of the second tree takes part.
+    fn second_slot(&self, j: usize) -> bool;
+}
+
+/// Every face of two trees.
+struct EveryFace;
+
+impl PairFilter for EveryFace {
+    fn nodes(&self, _: u32, _: u32) -> bool {
+        true
+    }
+    fn first_slot(&self, _: usize) -> bool {
+        true
+    }
+    fn second_slot(&self, _: usize) -> bool {
+        true
+    }
+}
+
+/// Set A's faces in the first place, set B's in the second, of one tree.
+impl PairFilter for FaceSets {
+    fn nodes(&self, a: u32, b: u32) -> bool {
+        self.node_bits[a as usize] & SET_A != 0 && self.node_bits[b as usize] & SET_B != 0
+    }
+    fn first_slot(&self, i: usize) -> bool {
+        self.slot_bits[i] == SET_A
+    }
+    fn second_slot(&self, j: usize) -> bool {
+        self.slot_bits[j] == SET_B
+    }
 }
 
 /// `pairs` mapped through `visit` (which may drop a pair), sorted by pair; in parallel when
@@ -768,6 +739,9 @@ mod tests {
             // Interleaved in strips across both grids.
             &|f: u32| [1, 2, 0][(f / 3 % 3) as usize],
         ];
+        let empty = TriangleBvh::build(&two_grids(0.0).0, &two_grids(0.0).1, &[]);
+        let none = empty.pairs_between_sets(&empty.face_sets(|_| 1), |x, y| Some((x, y)));
+        assert_eq!(none, Some(Vec::new()));
         for label in labelings {
             let mesh = two_grids(0.0);
             let all: Vec<u32> = (0..mesh.1.len() as u32).collect();
@@ -788,10 +762,28 @@ mod tests {
                     .collect();
                 assert!(!expected.is_empty());
                 let got = tree.pairs_between_sets(&sets, |x, y| Some((x, y)));
-                assert_eq!(got, expected);
+                assert_eq!(got.as_ref(), Some(&expected));
+                let other = TriangleBvh::build(&positions, &mesh.1, &a);
+                assert!(other
+                    .pairs_between_sets(&sets, |x, y| Some((x, y)))
+                    .is_none());
                 let ta = TriangleBvh::build(&positions, &mesh.1, &a);
                 let tb = TriangleBvh::build(&positions, &mesh.1, &b);
                 assert_eq!(ta.candidate_pairs(&tb), expected);
+                // A restricted tree: its masked faces are in neither set.
+                let half: Vec<u32> = all.iter().copied().filter(|f| f / 4 % 2 == 0).collect();
+                let restricted = tree
+                    .restricted_at(&half, &positions, &mesh.1)
+                    .expect("subset");
+                let kept: Vec<(u32, u32)> = expected
+                    .iter()
+                    .copied()
+                    .filter(|(x, y)| x / 4 % 2 == 0 && y / 4 % 2 == 0)
+                    .collect();
+                assert!(!kept.is_empty() && kept.len() < expected.len());
+                let restricted_sets = restricted.face_sets(label);
+                let got = restricted.pairs_between_sets(&restricted_sets, |x, y| Some((x, y)));
+                assert_eq!(got, Some(kept));
             }
         }
     }

@@ -195,7 +195,10 @@ impl MeshIndex {
 
     /// The BVH refitted to `positions`, to keep and view with [`MeshIndex::posed_with`] while
     /// the positions do not change (one refit shared by several queries).
-    pub fn refit_tree(&self, positions: &[Point3<f64>]) -> Result<TriangleBvh, IntersectError> {
+    pub(crate) fn refit_tree(
+        &self,
+        positions: &[Point3<f64>],
+    ) -> Result<TriangleBvh, IntersectError> {
         self.check_frame(positions)?;
         let mut bvh = self.bvh.clone();
         bvh.refit(positions, &self.triangles);
@@ -206,7 +209,7 @@ impl MeshIndex {
     /// is: for an index made for one frame, such as a self-contact's truncated parts
     /// ([`MeshIndex::self_contact_parts_within`]), which [`MeshIndex::pose`] would refit a
     /// second time. Other positions would make queries miss.
-    pub fn posed_as_built<'a>(
+    pub(crate) fn posed_as_built<'a>(
         &'a self,
         positions: &'a [Point3<f64>],
     ) -> Result<PosedMesh<'a>, IntersectError> {
@@ -221,11 +224,12 @@ impl MeshIndex {
 
     /// The surface at `positions` with `tree`, which [`MeshIndex::refit_tree`] returned for
     /// these same positions (a tree of another frame would make queries miss).
-    pub fn posed_with<'a>(
+    pub(crate) fn posed_with<'a>(
         &'a self,
         positions: &'a [Point3<f64>],
         tree: &'a TriangleBvh,
     ) -> PosedMesh<'a> {
+        debug_assert_eq!(positions.len(), self.vertex_count);
         PosedMesh {
             index: self,
             positions,
@@ -363,7 +367,8 @@ pub(crate) fn canonical(a: u32, b: u32) -> [u32; 2] {
     [a.min(b), a.max(b)]
 }
 
-fn check_positions(positions: &[Point3<f64>]) -> Result<(), IntersectError> {
+/// [`IntersectError::NonFinitePosition`] for the first non-finite position.
+pub(crate) fn check_positions(positions: &[Point3<f64>]) -> Result<(), IntersectError> {
     match positions
         .iter()
         .position(|p| !p.iter().all(|x| x.is_finite()))

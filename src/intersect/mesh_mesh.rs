@@ -126,15 +126,19 @@ impl Intersections {
     }
 
     /// [`Intersections::self_contact`] between two disjoint sets of one surface's faces,
-    /// marked in its BVH ([`crate::intersect::MeshIndex::face_sets`]): the same result as
-    /// between two indices over each set, with one refit of one tree for both.
-    pub fn between_sets(mesh: &PosedMesh, sets: &FaceSets) -> Self {
+    /// marked in its BVH ([`crate::intersect::MeshIndex::face_sets`]): the same segments, hits
+    /// and curves as between two indices over each set, with one refit of one tree for both
+    /// (the statistics' index-degenerate faces are the whole surface's).
+    pub fn between_sets(mesh: &PosedMesh, sets: &FaceSets) -> Result<Self, IntersectError> {
         let counters = Counters::default();
-        let pairs = mesh.bvh().pairs_between_sets(sets, |fa, fb| {
-            pair_segment(mesh, fa, mesh, fb, true, &counters)
-        });
+        let pairs = mesh
+            .bvh()
+            .pairs_between_sets(sets, |fa, fb| {
+                pair_segment(mesh, fa, mesh, fb, true, &counters)
+            })
+            .ok_or(IntersectError::FaceSetsMismatch)?;
         let degenerate = mesh.index().index_degenerate_faces();
-        assemble(pairs, degenerate, &counters)
+        Ok(assemble(pairs, degenerate, &counters))
     }
 
     /// True when nothing intersects.

@@ -51,6 +51,7 @@ pub mod silhouette;
 
 pub use bvh::{Aabb, FaceSets, TriangleBvh};
 pub use curves::Curve;
+pub(crate) use index::check_positions;
 pub use index::{MeshIndex, PosedMesh};
 pub use mesh_mesh::{
     intersect_meshes, intersect_parts, EdgeHit, IntersectionSegment, IntersectionStats,
@@ -113,6 +114,10 @@ pub enum IntersectError {
     /// The two parts of a self-contact were not posed on the same mesh and positions.
     #[error("self-contact parts must share their triangles and be posed with the same positions")]
     SelfContactMismatch,
+    /// Face sets marked on another tree than the one queried
+    /// ([`crate::intersect::Intersections::between_sets`]).
+    #[error("the face sets were marked on a different tree")]
+    FaceSetsMismatch,
     /// Intersections passed with a mesh they were not computed on.
     #[error("the intersections refer to vertices or faces this mesh does not have")]
     Mismatch,

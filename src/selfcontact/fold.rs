@@ -191,9 +191,6 @@ pub struct FoldPre {
     shared: WorkingRegion,
     /// Faces at rest: 1 on W1's side, 2 on W2's, 0 elsewhere ([`rest_labels`]).
     labels: Vec<u8>,
-    /// Index over the faces of both sides, marked in its tree ([`FoldPre::detect`]).
-    detect: MeshIndex,
-    detect_sets: FaceSets,
     faces: Vec<u32>,
     /// BVH over `faces` (at rest), restricted to each truncated part per frame.
     parts_tree: crate::intersect::bvh::TriangleBvh,
@@ -312,12 +309,9 @@ impl FoldPre {
         faces.sort_unstable();
         faces.dedup();
         let labels = rest_labels(triangles, &regions);
-        let sided: Vec<u32> = (0..triangles.len() as u32)
-            .filter(|&f| labels[f as usize] != 0)
-            .collect();
-        let detect = MeshIndex::with_faces(rest, triangles, &sided)?;
-        let detect_sets = detect.face_sets(|f| labels[f as usize]);
-        // The indices were checked by `detect` (over the same faces).
+        // The indices are the regions' own (derived from `triangles`); the positions are
+        // checked before a tree is built on them.
+        crate::intersect::check_positions(rest)?;
         let parts_tree = crate::intersect::bvh::TriangleBvh::build(rest, triangles, &faces);
         // Only the topology is needed here (no factorization of the whole mesh).
         let closed = crate::mesh::Region::whole(triangles).is_closed();
@@ -335,8 +329,6 @@ impl FoldPre {
             w2,
             shared,
             labels,
-            detect,
-            detect_sets,
             faces,
             parts_tree,
             closed,
@@ -353,7 +345,9 @@ impl FoldPre {
 pub struct Detection {
     /// Vertices of the crossed faces, sorted.
     pub vertices: Vec<u32>,
-    /// Seconds.
+    /// Seconds, with the refit of the body's tree when this detection did it (in the
+    /// self-contact pass: the first fold of a body in a frame, or the first after a fold moved
+    /// the body; the others reuse that tree).
     pub seconds: f64,
 }
 
@@ -373,12 +367,25 @@ impl FoldPre {
 
     /// Detection with the rest partition: `None` when the fold does not intersect itself at
     /// `positions` (then nothing else of the fold needs computing, not even normals). The
-    /// one-off form of [`FoldPre::detect_on`], on the fold's own tree; the self-contact pass
-    /// shares one refit tree per body between its joints.
-    pub fn detect(&self, positions: &[Point3<f64>]) -> Result<Option<Detection>, FoldError> {
+    /// one-off form of [`FoldPre::detect_on`]: it builds a tree over the mesh at `positions`,
+    /// where the self-contact pass refits one tree per body and frame for all its joints.
+    pub fn detect(
+        &self,
+        positions: &[Point3<f64>],
+        triangles: &[[u32; 3]],
+    ) -> Result<Option<Detection>, FoldError> {
         let clock = Instant::now();
-        let posed = self.detect.pose(positions)?;
-        Ok(self.detect_on(&posed, &self.detect_sets, clock))
+        let index = MeshIndex::with_faces(positions, triangles, &self.sided_faces())?;
+        let sets = self.face_sets(&index);
+        self.detect_on(&index.posed_as_built(positions)?, &sets, clock)
+    }
+
+    /// The faces of both sides of the rest partition (sorted): what the detection's tree must
+    /// hold.
+    pub fn sided_faces(&self) -> Vec<u32> {
+        (0..self.labels.len() as u32)
+            .filter(|&f| self.labels[f as usize] != 0)
+            .collect()
     }
 
     /// The two sides of the rest partition (W1's faces 1, W2's 2) marked in `body`'s tree, for
@@ -388,18 +395,21 @@ impl FoldPre {
     }
 
     /// Detection on the fold's body posed with its tree refit (`sets` from
-    /// [`FoldPre::face_sets`] on that body): the vertices of the faces crossing the other
-    /// side, `None` when none do. `started`: when the detection began (its refit included).
+    /// [`FoldPre::face_sets`] on that body's index): the vertices of the faces crossing the
+    /// other side, `None` when none do. `started`: when the detection began, so that
+    /// [`Detection::seconds`] includes the tree's refit where the caller did it.
     pub fn detect_on(
         &self,
         body: &PosedMesh,
         sets: &FaceSets,
         started: Instant,
-    ) -> Option<Detection> {
-        intersecting_vertices(body, sets).map(|vertices| Detection {
-            vertices,
-            seconds: started.elapsed().as_secs_f64(),
-        })
+    ) -> Result<Option<Detection>, FoldError> {
+        Ok(
+            intersecting_vertices(body, sets)?.map(|vertices| Detection {
+                vertices,
+                seconds: started.elapsed().as_secs_f64(),
+            }),
+        )
     }
 }
 
@@ -688,10 +698,10 @@ fn with_buried(
 
 /// Detection with the rest partition: the vertices of the faces crossing the other side, or
 /// `None` when the fold does not intersect itself.
-fn intersecting_vertices(body: &PosedMesh, sets: &FaceSets) -> Option<Vec<u32>> {
-    let ints = Intersections::between_sets(body, sets);
+fn intersecting_vertices(body: &PosedMesh, sets: &FaceSets) -> Result<Option<Vec<u32>>, FoldError> {
+    let ints = Intersections::between_sets(body, sets)?;
     if ints.is_empty() {
-        return None;
+        return Ok(None);
     }
     let triangles = body.triangles();
     let mut vertices: Vec<u32> = ints
@@ -705,7 +715,7 @@ fn intersecting_vertices(body: &PosedMesh, sets: &FaceSets) -> Option<Vec<u32>> 
         .collect();
     vertices.sort_unstable();
     vertices.dedup();
-    Some(vertices)
+    Ok(Some(vertices))
 }
 
 /// Sec. 4.2-4.4 between the truncated parts, with the skeleton's (or the user's) direction.

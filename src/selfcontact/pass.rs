@@ -6,17 +6,18 @@
 
 use super::direction::{BoneAxes, DirectionSource, Meeting};
 use super::fold::{
-    resolve_detected, Detection, FoldError, FoldInput, FoldOutput, FoldParams, FoldPre, FoldTimings,
+    resolve_detected, FoldError, FoldInput, FoldOutput, FoldParams, FoldPre, FoldTimings,
 };
 use super::regions::{derive_pairs_reporting, RegionOptions};
 use super::turn_guard::TurnReference;
 use super::SelfContactError;
-use crate::intersect::{FaceSets, MeshIndex, TriangleBvh};
+use crate::intersect::{FaceSets, IntersectError, MeshIndex, PosedMesh, TriangleBvh};
 use crate::mesh::operators::{vertex_normals, NormalWeighting};
 use crate::mesh::WeldedMesh;
 use crate::rig::{Pose, Rig};
 use crate::skinning::{cofactor, unit_or_zero};
 use nalgebra::{Matrix3, Point3, Vector3};
+use std::sync::Arc;
 use std::time::Instant;
 
 /// One joint pair of one body, precomputed.
@@ -24,7 +25,10 @@ use std::time::Instant;
 struct Fold {
     body: usize,
     pre: FoldPre,
-    /// The fold's two sides marked in its body's tree ([`SelfContactPass::bodies`]).
+    /// The index its detection runs on, shared by every fold of the body: over the faces of
+    /// all their sides, its tree built at rest and refit per frame ([`PosedBodies`]).
+    detection: Arc<MeshIndex>,
+    /// The fold's two sides marked in that tree.
     sets: FaceSets,
     axes: BoneAxes,
     direction: DirectionSource,
@@ -68,10 +72,6 @@ pub struct SelfContactPass {
     folds: Vec<Fold>,
     params: FoldParams,
     triangles: Vec<Vec<[u32; 3]>>,
-    /// Per body: an index over all its faces (BVH built at rest), whose tree is refit once per
-    /// frame and body and shared by the detection of every fold of the body until a fold moves
-    /// it; `None` for a body without a fold.
-    bodies: Vec<Option<MeshIndex>>,
     /// Welded rest positions per body, and the rest pose ([`DirectionSource::Motion`]).
     rest: Vec<Vec<Point3<f64>>>,
     /// Per body: the welded rest normals and each welded vertex's file vertex (its weights),
@@ -101,6 +101,14 @@ pub enum SelfPassError {
         /// Cause.
         source: FoldError,
     },
+    /// A body's detection index (non-finite rest positions).
+    #[error("body {body}: {source}")]
+    Detection {
+        /// The body.
+        body: usize,
+        /// Cause.
+        source: IntersectError,
+    },
     /// Inputs do not match the rig.
     #[error("{0}")]
     Mismatch(String),
@@ -126,43 +134,26 @@ impl SelfContactPass {
                 rest.len()
             )));
         }
-        let mut folds = Vec::new();
-        let mut bodies: Vec<Option<MeshIndex>> = welded.iter().map(|_| None).collect();
+        let mut built = Vec::new();
         let (pairs, skipped) = derive_pairs_reporting(rig, welded, options)?;
         for regions in pairs {
             let body = regions.pair.body;
             let name = regions.pair.name.clone();
-            let fail = |source: FoldError| SelfPassError::Fold {
-                name: name.clone(),
-                source,
-            };
-            let index = match &mut bodies[body] {
-                Some(index) => index,
-                slot => slot.insert(
-                    MeshIndex::new(&rest[body], &welded[body].triangles)
-                        .map_err(|e| fail(e.into()))?,
-                ),
-            };
             let axes = BoneAxes::new(rig, &welded[body], &regions);
             let direction = directions
                 .iter()
                 .find(|(n, _)| *n == name)
                 .map_or(DirectionSource::Skeleton, |(_, d)| *d);
-            let pre = FoldPre::new(&rest[body], &welded[body].triangles, regions).map_err(fail)?;
-            folds.push(Fold {
-                body,
-                sets: pre.face_sets(index),
-                pre,
-                axes,
-                direction,
-            });
+            let pre = FoldPre::new(&rest[body], &welded[body].triangles, regions)
+                .map_err(|source| SelfPassError::Fold { name, source })?;
+            built.push((body, pre, axes, direction));
         }
+        let folds = with_detection(built, rest, welded)?;
         let triangles = welded.iter().map(|w| w.triangles.clone()).collect();
         Ok(Self {
             folds,
             params,
             triangles,
-            bodies,
             rest: rest.to_vec(),
             rest_normals: rest
                 .iter()
@@ -240,15 +231,14 @@ impl SelfContactPass {
         // The positions before any fold, copied when the first fold is detected: the turn
         // guard's reference.
         let mut frame_input = None;
-        let mut trees: Vec<Option<TriangleBvh>> = vec![None; positions.len()];
+        let mut bodies = PosedBodies::new(positions);
         for _ in 0..self.passes {
             let mut changed = false;
             for fold in &self.folds {
                 let frame = Frame {
                     rig,
                     pose,
-                    positions: &mut *positions,
-                    trees: &mut trees,
+                    bodies: &mut bodies,
                 };
                 changed |= self.sweep_fold(fold, frame, &mut frame_input, &mut out)?;
             }
@@ -297,26 +287,6 @@ impl SelfContactPass {
         })
     }
 
-    /// Detection of `fold` on its body's tree, refit here unless an earlier fold's detection
-    /// refit it at these positions.
-    fn detect(
-        &self,
-        fold: &Fold,
-        pos: &[Point3<f64>],
-        tree: &mut Option<TriangleBvh>,
-    ) -> Result<Option<Detection>, FoldError> {
-        let clock = Instant::now();
-        let Some(index) = &self.bodies[fold.body] else {
-            return Ok(None);
-        };
-        let tree = match tree {
-            Some(tree) => tree,
-            slot => slot.insert(index.refit_tree(pos)?),
-        };
-        let posed = index.posed_with(pos, tree);
-        Ok(fold.pre.detect_on(&posed, &fold.sets, clock))
-    }
-
     /// One fold in one sweep; whether it moved the body.
     fn sweep_fold(
         &self,
@@ -325,24 +295,21 @@ impl SelfContactPass {
         frame_input: &mut Option<Vec<Vec<Point3<f64>>>>,
         out: &mut SelfPassOutput,
     ) -> Result<bool, SelfPassError> {
-        let Frame {
-            rig,
-            pose,
-            positions,
-            trees,
-        } = frame;
+        let Frame { rig, pose, bodies } = frame;
         let name = &fold.pre.regions.pair.name;
         let tris = &self.triangles[fold.body];
-        let pos = &positions[fold.body];
         let fail = |source| SelfPassError::Fold {
             name: name.clone(),
             source,
         };
-        if fold.pre.collapsed(pos) {
+        if fold.pre.collapsed(bodies.positions(fold.body)) {
             return Ok(false);
         }
         // Detection first: a joint that does not fold into itself costs its detection only.
-        let detection = self.detect(fold, pos, &mut trees[fold.body]);
+        let clock = Instant::now();
+        let posed = bodies.posed(fold.body, &fold.detection);
+        let posed = posed.map_err(|e| fail(e.into()))?;
+        let detection = fold.pre.detect_on(&posed, &fold.sets, clock);
         let Some(detection) = detection.map_err(fail)? else {
             return Ok(false);
         };
@@ -359,8 +326,8 @@ impl SelfContactPass {
             .flatten();
         let first = skinned
             .is_some()
-            .then(|| &*frame_input.get_or_insert_with(|| positions.to_vec()));
-        let pos = &positions[fold.body];
+            .then(|| &*frame_input.get_or_insert_with(|| bodies.all().to_vec()));
+        let pos = bodies.positions(fold.body);
         let normals = vertex_normals(pos, tris, NormalWeighting::Area);
         let normal = |v: usize| skinned.as_ref().map_or_else(Vector3::zeros, |s| s.at(v));
         let input = FoldInput {
@@ -383,8 +350,7 @@ impl SelfContactPass {
         }
         out.timings += o.timings;
         let moved = !o.unbalanced;
-        positions[fold.body].clone_from(&o.positions);
-        trees[fold.body] = None;
+        bodies.replace(fold.body, &o.positions);
         out.folds.push(FoldReport {
             body: fold.body,
             name: name.clone(),
@@ -395,13 +361,95 @@ impl SelfContactPass {
     }
 }
 
-/// One frame of the pass as a fold sweeps it: the pose, every body's positions (updated fold
-/// after fold) and each body's detection tree refit at them (`None`: not refit yet).
-struct Frame<'f> {
+/// One frame of the pass as a fold sweeps it: the pose and the bodies.
+struct Frame<'f, 'p> {
     rig: &'f Rig,
     pose: &'f Pose,
-    positions: &'f mut [Vec<Point3<f64>>],
-    trees: &'f mut [Option<TriangleBvh>],
+    bodies: &'f mut PosedBodies<'p>,
+}
+
+/// Every body's positions in one frame, updated fold after fold, and each body's detection
+/// tree refit at them: one refit per body shared by the detections of its folds until a fold
+/// moves it. The positions change only through [`PosedBodies::replace`], which drops the
+/// body's tree, so a tree is never queried at positions it was not refit at.
+struct PosedBodies<'p> {
+    positions: &'p mut [Vec<Point3<f64>>],
+    trees: Vec<Option<TriangleBvh>>,
+}
+
+impl<'p> PosedBodies<'p> {
+    fn new(positions: &'p mut [Vec<Point3<f64>>]) -> Self {
+        let trees = vec![None; positions.len()];
+        Self { positions, trees }
+    }
+
+    /// Every body's positions.
+    fn all(&self) -> &[Vec<Point3<f64>>] {
+        self.positions
+    }
+
+    /// Positions of `body`.
+    fn positions(&self, body: usize) -> &[Point3<f64>] {
+        &self.positions[body]
+    }
+
+    /// `body` posed for detection on `index` (its index: one per body), refitting the tree
+    /// unless it was refit at these positions.
+    fn posed<'s>(
+        &'s mut self,
+        body: usize,
+        index: &'s MeshIndex,
+    ) -> Result<PosedMesh<'s>, IntersectError> {
+        let positions = &self.positions[body];
+        let tree = match &mut self.trees[body] {
+            Some(tree) => tree,
+            slot => slot.insert(index.refit_tree(positions)?),
+        };
+        Ok(index.posed_with(positions, tree))
+    }
+
+    /// New positions for `body`; its tree is dropped.
+    fn replace(&mut self, body: usize, positions: &[Point3<f64>]) {
+        self.positions[body].clone_from_slice(positions);
+        self.trees[body] = None;
+    }
+}
+
+/// The folds with their detection: one index per body with a fold, over the faces of all its
+/// folds' sides (the rest of the body is never queried), each fold's sides marked in it.
+fn with_detection(
+    built: Vec<(usize, FoldPre, BoneAxes, DirectionSource)>,
+    rest: &[Vec<Point3<f64>>],
+    welded: &[WeldedMesh],
+) -> Result<Vec<Fold>, SelfPassError> {
+    let mut sided: Vec<Vec<u32>> = vec![Vec::new(); welded.len()];
+    for (body, pre, ..) in &built {
+        sided[*body].extend(pre.sided_faces());
+    }
+    let mut indices: Vec<Option<Arc<MeshIndex>>> = vec![None; welded.len()];
+    let mut folds = Vec::with_capacity(built.len());
+    for (body, pre, axes, direction) in built {
+        let detection = match &mut indices[body] {
+            Some(index) => Arc::clone(index),
+            slot => {
+                let faces = &mut sided[body];
+                faces.sort_unstable();
+                faces.dedup();
+                let index = MeshIndex::with_faces(&rest[body], &welded[body].triangles, faces)
+                    .map_err(|source| SelfPassError::Detection { body, source })?;
+                Arc::clone(slot.insert(Arc::new(index)))
+            }
+        };
+        folds.push(Fold {
+            body,
+            sets: pre.face_sets(&detection),
+            detection,
+            pre,
+            axes,
+            direction,
+        });
+    }
+    Ok(folds)
 }
 
 /// The turn guard's reference of one body in one pose: each welded vertex's rest normal (the
@@ -437,5 +485,35 @@ impl SkinnedNormals<'_> {
             .copied()
             .unwrap_or_else(Vector3::zeros);
         unit_or_zero(cofactor(&linear) * n)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A body's detection tree follows its positions: after [`PosedBodies::replace`] the next
+    /// detection refits it (a stale tree would miss the pairs the move created).
+    #[test]
+    fn replaced_positions_drop_the_tree() {
+        let tris = vec![[0u32, 1, 2]];
+        let at = |x: f64| {
+            vec![
+                Point3::new(x, 0.0, 0.0),
+                Point3::new(x + 1.0, 0.0, 0.0),
+                Point3::new(x, 1.0, 0.0),
+            ]
+        };
+        let index = MeshIndex::new(&at(0.0), &tris).expect("index");
+        let mut positions = vec![at(0.0)];
+        let mut bodies = PosedBodies::new(&mut positions);
+        let low_x = |b: &mut PosedBodies| {
+            let posed = b.posed(0, &index).expect("finite positions");
+            posed.bvh().root_box().expect("a face").min.x
+        };
+        assert_eq!(low_x(&mut bodies), 0.0);
+        bodies.replace(0, &at(5.0));
+        assert_eq!(bodies.positions(0)[0].x, 5.0);
+        assert_eq!(low_x(&mut bodies), 5.0);
     }
 }
