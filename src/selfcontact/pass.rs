@@ -410,7 +410,9 @@ impl<'p> PosedBodies<'p> {
 
     /// New positions for `body`; its tree is dropped.
     fn replace(&mut self, body: usize, positions: &[Point3<f64>]) {
-        self.positions[body].clone_from_slice(positions);
+        let own = &mut self.positions[body];
+        own.clear();
+        own.extend_from_slice(positions);
         self.trees[body] = None;
     }
 }
