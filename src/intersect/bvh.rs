@@ -274,7 +274,7 @@ impl TriangleBvh {
     /// pairs `(face of A, face of B)` whose boxes overlap, mapped through `visit`, sorted by
     /// pair. The same pairs as between two trees built over each set (node boxes here also
     /// cover faces of neither set, which only costs box tests), with one refit for both sets;
-    /// one tree over a whole body serves every joint's two parts (2021 Sec. 6 detection).
+    /// one tree over a body serves every joint's two sides (2021 Sec. 6 detection).
     /// `None` when `sets` was not made by [`TriangleBvh::face_sets`] on a tree of this shape.
     pub fn pairs_between_sets<R, F>(&self, sets: &FaceSets, visit: F) -> Option<Vec<R>>
     where
@@ -290,8 +290,8 @@ impl TriangleBvh {
         self.pairs_where(other, &EveryFace)
     }
 
-    /// The face pairs `(slot of self, slot of other)` that `filter` admits and whose boxes
-    /// overlap, in tree order: node pairs with overlapping boxes split depth first (internal
+    /// The face pairs `(face of self, face of other)` whose leaf slots `filter` admits and whose
+    /// boxes overlap, in tree order: node pairs with overlapping boxes split depth first (internal
     /// nodes split, both at once when both are internal), pruned by `filter`'s node test.
     fn pairs_where(&self, other: &TriangleBvh, filter: &impl PairFilter) -> Vec<(u32, u32)> {
         let mut pairs = Vec::new();
