@@ -23,8 +23,10 @@ use crate::deform::{DeformParams, DeformStats, RegionDeformation, RegionFrame, W
 use crate::heat::{Boundary, EdgePoint};
 use crate::intersect::{FaceSets, Intersections, MeshIndex, PosedMesh};
 use crate::pass::StageTimings;
+use crate::report::metrics::WindingNumber;
 use nalgebra::{Point3, Vector3};
 use std::collections::HashMap;
+use std::sync::Arc;
 use std::time::Instant;
 
 /// Why a fold could not be resolved in a frame.
@@ -195,7 +197,9 @@ pub struct FoldPre {
     /// BVH over `faces` (at rest), restricted to each truncated part per frame.
     parts_tree: crate::intersect::bvh::TriangleBvh,
     closed: bool,
-    winding: crate::report::metrics::WindingNumber,
+    /// The body's winding-number tree at rest ([`FoldPre::body_winding`]), shared by the
+    /// body's folds.
+    winding: Arc<WindingNumber>,
     topology: CreaseTopology,
     /// Neighbours of each local vertex of `shared` (local ids).
     shared_adjacency: Vec<Vec<u32>>,
@@ -296,6 +300,24 @@ impl FoldPre {
         triangles: &[[u32; 3]],
         regions: PairRegions,
     ) -> Result<Self, FoldError> {
+        let winding = Arc::new(Self::body_winding(rest, triangles));
+        Self::with_winding(rest, triangles, regions, winding)
+    }
+
+    /// The winding-number tree of the whole body at rest that a fold's inside-twice tests
+    /// use (refit per fold and frame): one per body, whatever its number of folds.
+    pub fn body_winding(rest: &[Point3<f64>], triangles: &[[u32; 3]]) -> WindingNumber {
+        WindingNumber::with_beta(rest, triangles, INSIDE_BETA)
+    }
+
+    /// [`FoldPre::new`] with the body's tree from [`FoldPre::body_winding`] on the same rest
+    /// positions and triangles, shared with the body's other folds.
+    pub fn with_winding(
+        rest: &[Point3<f64>],
+        triangles: &[[u32; 3]],
+        regions: PairRegions,
+        winding: Arc<WindingNumber>,
+    ) -> Result<Self, FoldError> {
         let n = rest.len();
         let w1 = WorkingRegion::new(triangles, regions.w1_faces.iter().copied(), n)?;
         let w2 = WorkingRegion::new(triangles, regions.w2_faces.iter().copied(), n)?;
@@ -315,8 +337,6 @@ impl FoldPre {
         let parts_tree = crate::intersect::bvh::TriangleBvh::build(rest, triangles, &faces);
         // Only the topology is needed here (no factorization of the whole mesh).
         let closed = crate::mesh::Region::whole(triangles).is_closed();
-        let winding =
-            crate::report::metrics::WindingNumber::with_beta(rest, triangles, INSIDE_BETA);
         let topology = CreaseTopology::new(triangles, &faces, &regions.w1, &regions.w2);
         let joint_size = regions.joint_size(rest, triangles);
         let rest_box = regions.box_diagonal(rest);
@@ -453,7 +473,7 @@ pub fn resolve_detected(
         ..FoldTimings::default()
     };
     let mut laps = Laps::start();
-    let mut winding = pre.winding.clone();
+    let mut winding = WindingNumber::clone(&pre.winding);
     let inside = winding
         .refit(positions, triangles)
         .then(|| InsideTwice::new(std::borrow::Cow::Borrowed(&winding), positions, triangles));

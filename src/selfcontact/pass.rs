@@ -14,6 +14,7 @@ use super::SelfContactError;
 use crate::intersect::{FaceSets, IntersectError, MeshIndex, PosedMesh, TriangleBvh};
 use crate::mesh::operators::{vertex_normals, NormalWeighting};
 use crate::mesh::WeldedMesh;
+use crate::report::metrics::WindingNumber;
 use crate::rig::{Pose, Rig};
 use crate::skinning::{cofactor, unit_or_zero};
 use nalgebra::{Matrix3, Point3, Vector3};
@@ -135,16 +136,22 @@ impl SelfContactPass {
             )));
         }
         let mut built = Vec::new();
+        // One winding-number tree per body, shared by its folds.
+        let mut windings: Vec<Option<Arc<WindingNumber>>> = vec![None; welded.len()];
         let (pairs, skipped) = derive_pairs_reporting(rig, welded, options)?;
         for regions in pairs {
             let body = regions.pair.body;
+            let (rest, triangles) = (&rest[body], &welded[body].triangles);
+            let winding = windings[body]
+                .get_or_insert_with(|| Arc::new(FoldPre::body_winding(rest, triangles)));
+            let winding = Arc::clone(winding);
             let name = regions.pair.name.clone();
             let axes = BoneAxes::new(rig, &welded[body], &regions);
             let direction = directions
                 .iter()
                 .find(|(n, _)| *n == name)
                 .map_or(DirectionSource::Skeleton, |(_, d)| *d);
-            let pre = FoldPre::new(&rest[body], &welded[body].triangles, regions)
+            let pre = FoldPre::with_winding(rest, triangles, regions, winding)
                 .map_err(|source| SelfPassError::Fold { name, source })?;
             built.push((body, pre, axes, direction));
         }
