@@ -157,14 +157,15 @@ impl CutMesh {
                     + (positions[e[1] as usize] - positions[e[0] as usize]) * a,
             );
         }
+        // About one piece per face (kept, dropped, or split in two where the boundary cuts off
+        // a corner).
+        let pieces = region.triangles.len() + boundary.points.len();
         let mut mesh = Self {
             n,
             nodes,
-            // About one piece per face (kept, dropped, or split in two where the boundary cuts
-            // off a corner).
-            triangles: Vec::with_capacity(region.triangles.len() + boundary.points.len()),
-            geometry: Vec::with_capacity(region.triangles.len() + boundary.points.len()),
-            parent: Vec::with_capacity(region.triangles.len() + boundary.points.len()),
+            triangles: Vec::with_capacity(pieces),
+            geometry: Vec::with_capacity(pieces),
+            parent: Vec::with_capacity(pieces),
             role,
             dirichlet_count: boundary.dirichlet_count(),
             mass: vec![0.0; n],

@@ -213,12 +213,8 @@ impl MeshIndex {
         &'a self,
         positions: &'a [Point3<f64>],
     ) -> Result<PosedMesh<'a>, IntersectError> {
-        if positions.len() != self.vertex_count {
-            return Err(IntersectError::PositionCount {
-                expected: self.vertex_count,
-                got: positions.len(),
-            });
-        }
+        // Finite already: the index was built at these positions.
+        self.check_count(positions)?;
         Ok(self.posed_with(positions, &self.bvh))
     }
 
@@ -257,14 +253,21 @@ impl MeshIndex {
         })
     }
 
+    /// One position per vertex of the mesh, all finite.
     fn check_frame(&self, positions: &[Point3<f64>]) -> Result<(), IntersectError> {
+        self.check_count(positions)?;
+        check_positions(positions)
+    }
+
+    /// One position per vertex of the mesh.
+    fn check_count(&self, positions: &[Point3<f64>]) -> Result<(), IntersectError> {
         if positions.len() != self.vertex_count {
             return Err(IntersectError::PositionCount {
                 expected: self.vertex_count,
                 got: positions.len(),
             });
         }
-        check_positions(positions)
+        Ok(())
     }
 }
 

@@ -102,7 +102,7 @@ pub enum SelfPassError {
         /// Cause.
         source: FoldError,
     },
-    /// A body's detection index (non-finite rest positions).
+    /// A body's detection index could not be built (invalid rest positions or faces).
     #[error("body {body}: {source}")]
     Detection {
         /// The body.
