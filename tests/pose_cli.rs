@@ -1040,6 +1040,12 @@ fn info_reports_the_joint_pairs_and_their_direction_source() {
     let p = &pairs[0];
     assert_eq!(p["name"], "lips/head-jaw");
     assert_eq!(p["direction_source"], "motion");
+    // The lips' "bones" (toward the head joint and toward the lower lip) are 9° apart at rest:
+    // the skeleton's direction would keep that fold's sense past a full fold.
+    let rest_fold = p["rest_fold_degrees"]
+        .as_f64()
+        .expect("folded past 90° at rest");
+    assert!(rest_fold > 170.0 && rest_fold < 172.0, "{rest_fold}");
     assert_eq!(sc["skipped"].as_array().map(Vec::len), Some(0));
     assert!(p["direction"].is_null());
     assert!(p["shared"].as_u64().expect("shared") > 0);

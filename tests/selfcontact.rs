@@ -151,14 +151,17 @@ fn check(name: &str, r: &Run, max_after: usize, max_turned: usize, max_ratio: f6
     for x in &r.rows {
         let f = x.frame;
         assert_eq!(x.nan, 0, "{name} frame {f}: NaN");
+        // In every frame: a fold that is detected but not resolved (no contact zone) leaves
+        // its input's penetration.
+        assert!(
+            x.after <= max_after,
+            "{name} frame {f}: penetration {} -> {} ({} folds)",
+            x.before,
+            x.after,
+            x.folds
+        );
         if x.folds > 0 {
             assert!(x.volume_error < 1e-4, "{name} frame {f}: volume error");
-            assert!(
-                x.after <= max_after,
-                "{name} frame {f}: penetration {} -> {}",
-                x.before,
-                x.after
-            );
             assert!(
                 x.turned.turned <= max_turned,
                 "{name} frame {f}: {} faces turned ({} exposed)",
@@ -350,9 +353,42 @@ fn mouth_closes_with_the_motion_direction() {
     check("mouth (motion)", &r, 0, 0, 3.0);
 }
 
+/// The mouth with the default direction, from the skeleton. Its "bones" (from the jaw joint
+/// toward the head joint and toward the lower lip's vertices) are 9° apart at rest and pass
+/// each other as the jaw closes, where `normalize(u2 - u1)` turned over, to the lips' inside:
+/// from frame 21 of 31 on the fold found no contact zone and left the input's 588 penetrating
+/// vertices. The rest fold's sense keeps the direction (`skeleton_direction`, past a full
+/// fold), within 12° of the paper's vertical in every frame with a fold (measured 9.3-11.5°),
+/// and the mouth closes as with the vertical.
+#[test]
+fn mouth_closes_with_the_skeleton_direction() {
+    let r = run("mouth", 31, &[]);
+    assert_eq!(r.pairs.len(), 1);
+    check("mouth (skeleton)", &r, 0, 0, 3.0);
+    let l = load("mouth", 31);
+    let pass = self_pass(&l, &[]).with_passes(1);
+    let (mut worst, mut fold_frames) = (0.0f64, Vec::new());
+    for f in 0..31 {
+        let mut out = l.frame(f);
+        let pose = l.rig.pose_at(Some(0), l.times[f]);
+        let res = pass.run(&l.rig, &pose, &mut out).expect("pass runs");
+        for fold in &res.folds {
+            let cosine = fold.direction.dot(&-Vector3::y()).clamp(-1.0, 1.0);
+            worst = worst.max(cosine.acos().to_degrees());
+            fold_frames.push(f);
+        }
+    }
+    println!("mouth: folds in frames {fold_frames:?}, skeleton direction within {worst:.1}° of -Y");
+    // Once the lips touch, every frame folds (frames 11 to 30).
+    let first = *fold_frames.first().expect("folds");
+    assert_eq!(fold_frames, (first..31).collect::<Vec<_>>());
+    assert!(worst < 12.0, "{worst:.1}° from the vertical");
+}
+
 /// The direction from the relative motion of the parts agrees with the skeleton's on the
-/// articulations (capsule, finger) and with the paper's hand-set vertical on the mouth, where
-/// the skeleton's does not apply (not an articulation), in every frame with a fold.
+/// articulations (capsule, finger) and with the paper's hand-set vertical on the mouth (the
+/// lips are no articulation: the paper sets their direction by hand), in every frame with a
+/// fold.
 /// Measured: capsule 0.0°, finger at most 6.8°, mouth at most 6.9°.
 #[test]
 fn the_motion_direction_agrees_with_the_skeleton_and_the_vertical() {
@@ -380,7 +416,7 @@ fn the_motion_direction_agrees_with_the_skeleton_and_the_vertical() {
                     -Vector3::y()
                 } else {
                     let axes = BoneAxes::new(&l.rig, &l.pre.welded[p.pair.body], p);
-                    skeleton_direction(&pose, &p.pair, axes.leaf_axis).expect("skeleton")
+                    skeleton_direction(&pose, &p.pair, &axes).expect("skeleton")
                 };
                 let cosine = fold.direction.dot(&reference).clamp(-1.0, 1.0);
                 worst = worst.max(cosine.acos().to_degrees());
@@ -541,7 +577,7 @@ impl CapsuleFold {
         let skinned = l.frame_normals(f).swap_remove(0);
         let pose = l.rig.pose_at(Some(0), l.times[f]);
         let direction =
-            sign * skeleton_direction(&pose, &self.pair, self.axes.leaf_axis).expect("direction");
+            sign * skeleton_direction(&pose, &self.pair, &self.axes).expect("direction");
         let normals = vertex_normals(&input, &l.triangles[0], NormalWeighting::Area);
         let detection = pre.detect(&input, &l.triangles[0]).expect("detection runs");
         let out = detection.and_then(|d| {

@@ -358,7 +358,7 @@ fn skeleton_direction_follows_the_bend() {
     let mut at_90 = None;
     for &t in &times {
         let pose = rig.pose_at(Some(anim), t);
-        let d = skeleton_direction(&pose, &p.pair, axes.leaf_axis).expect("direction");
+        let d = skeleton_direction(&pose, &p.pair, &axes).expect("direction");
         let source = DirectionSource::Skeleton.direction(&pose, &p.pair, &axes, None);
         assert_eq!(source, Some(d));
         let at = |n: usize| pose.world[n].transform_point(&Point3::origin());
@@ -414,11 +414,15 @@ fn skeleton_direction_degenerates_only_at_a_full_fold() {
         locals[p.pair.child_joint] = LocalTransform::Trs(trs);
         rig.pose_from_locals(&locals)
     };
-    assert!(skeleton_direction(&pose_at(180.0), &p.pair, axes.leaf_axis).is_none());
-    assert!(skeleton_direction(&pose_at(179.0), &p.pair, axes.leaf_axis).is_some());
+    assert!(skeleton_direction(&pose_at(180.0), &p.pair, &axes).is_none());
+    assert!(skeleton_direction(&pose_at(179.0), &p.pair, &axes).is_some());
     // A leaf joint without axis has no direction; a fixed direction is normalized.
     let rest = rig.pose_at(None, 0.0);
-    assert!(skeleton_direction(&rest, &p.pair, None).is_none());
+    let no_axis = BoneAxes {
+        leaf_axis: None,
+        ..axes
+    };
+    assert!(skeleton_direction(&rest, &p.pair, &no_axis).is_none());
     let fixed = DirectionSource::Fixed(Vector3::new(0.0, 3.0, 0.0));
     assert_eq!(
         fixed.direction(&rest, &p.pair, &axes, None),

@@ -6,8 +6,8 @@ use contact_skin::contact::zones::DEFAULT_SAFEGUARD_ANGLE;
 use contact_skin::mesh::{TopologyReport, WeldedMesh};
 use contact_skin::pass::DEFAULT_EXTENT_FACTOR;
 use contact_skin::rig::{self, Rig};
-use contact_skin::selfcontact::DirectionSource;
 use contact_skin::selfcontact::{derive_pairs_reporting, PairRegions};
+use contact_skin::selfcontact::{BoneAxes, DirectionSource};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
@@ -86,6 +86,10 @@ struct SelfPairInfo {
     direction: Option<[f64; 3]>,
     /// Where the direction comes from: `"skeleton"`, `"fixed"` or `"motion"`.
     direction_source: &'static str,
+    /// The bones' fold angle at rest in degrees when it exceeds 90° (the skeleton's direction
+    /// keeps that fold's sense past a full fold: `contact_skin::selfcontact::RestFold`);
+    /// `null` otherwise.
+    rest_fold_degrees: Option<f64>,
     /// The same, for the text report.
     #[serde(skip)]
     source: DirectionSource,
@@ -279,6 +283,11 @@ fn describe_self_contact(
                 reason: r.reason.clone(),
                 direction: source.fixed(),
                 direction_source: source.label(),
+                rest_fold_degrees: pre
+                    .welded
+                    .get(p.body)
+                    .and_then(|w| BoneAxes::new(rig, w, r).rest_fold)
+                    .map(|f| f.angle.to_degrees()),
                 source,
             }
         })
@@ -341,7 +350,13 @@ fn print_self_contact(s: &SelfContactInfo) {
         let direction = match p.source {
             DirectionSource::Fixed(d) => format!("direction {:?} (configured)", [d.x, d.y, d.z]),
             DirectionSource::Motion => "direction from the relative motion of the parts".into(),
-            DirectionSource::Skeleton => "direction from the skeleton".into(),
+            DirectionSource::Skeleton => match p.rest_fold_degrees {
+                Some(a) => format!(
+                    "direction from the skeleton (folded {a:.1} deg at rest: that fold's sense \
+                     is kept past a full fold)"
+                ),
+                None => "direction from the skeleton".into(),
+            },
         };
         println!(
             "    pair '{}' (body {} '{}', joints '{}' -> '{}'): shared region {} vertices, joint size {:.6}, extent {:.6}, {direction}",

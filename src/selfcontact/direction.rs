@@ -13,6 +13,17 @@
 //! The child bone's other end is the child joint's first child node that is a joint of the
 //! body's skin; for a leaf joint it is `J` plus an axis precomputed from the rest vertices of
 //! `W2 \ R` ([`BoneAxes`]), carried by the child joint's world transform.
+//!
+//! **Past a full fold.** The paper's "orthogonal to the bisector" has two senses; `u2 - u1`
+//! picks the one that holds while the fold angle stays below 180°, and turns over when the
+//! bones pass each other. That happens where the rest pose is already folded far: the mouth's
+//! bones (from the jaw joint toward the head joint, and toward the lower lip) are 9° apart at
+//! rest, and closing the jaw sweeps the lip's direction past the head's, which reversed `d̂`
+//! (to the lips' inside) in the closed frames. A rest pose folded past 90° therefore sets the
+//! fold's sense ([`RestFold`]), and a pose more than 180° round from it the other way keeps
+//! that sense: `d̂ = -normalize(u2 - u1)` there. This is still time-independent (the pose and the
+//! rest pose only), and nothing changes for rest poses folded 90° or less (straight fingers,
+//! capsules, characters in T- or A-pose).
 
 use super::regions::PairRegions;
 use crate::mesh::WeldedMesh;
@@ -56,7 +67,7 @@ impl DirectionSource {
         meeting: Option<&Meeting>,
     ) -> Option<Vector3<f64>> {
         match self {
-            DirectionSource::Skeleton => skeleton_direction(pose, pair, axes.leaf_axis),
+            DirectionSource::Skeleton => skeleton_direction(pose, pair, axes),
             DirectionSource::Fixed(v) => unit(*v),
             DirectionSource::Motion => {
                 meeting.and_then(|m| motion_direction(pose, m.rest_pose, pair, m.points))
@@ -137,6 +148,55 @@ pub struct BoneAxes {
     /// Eigenvalues of the covariance of `W2 \ R`'s rest vertices, largest first (zero when
     /// not computed).
     pub variances: [f64; 3],
+    /// The rest pose's fold when it folds the bones past 90° (see the module doc); `None`
+    /// otherwise.
+    pub rest_fold: Option<RestFold>,
+}
+
+/// A pair's fold at rest, for rest poses folded past 90° (see the module doc).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RestFold {
+    /// The sense of the fold: the unit normal `(-u1) × u2` of the bones' plane at rest, in the
+    /// parent joint's frame (carried by its world transform in a pose).
+    pub sense: Vector3<f64>,
+    /// The fold angle at rest, `ψ_rest` in radians (between π/2 and π): the angle from the
+    /// parent bone's continuation `-u1` to `u2` about `sense`.
+    pub angle: f64,
+}
+
+impl RestFold {
+    /// The rest fold of `pair` at `rest` (the rest pose), when it exceeds 90°.
+    fn at(rest: &Pose, pair: &super::JointPair, leaf_axis: Option<Vector3<f64>>) -> Option<Self> {
+        let (u1, u2) = bone_directions(rest, pair, leaf_axis)?;
+        let normal = (-u1).cross(&u2);
+        let angle = normal.norm().atan2(-u1.dot(&u2));
+        if angle <= std::f64::consts::FRAC_PI_2 {
+            return None;
+        }
+        let to_parent = rest.world.get(pair.parent_joint)?.try_inverse()?;
+        let sense = unit(to_parent.transform_vector(&unit(normal)?))?;
+        Some(Self { sense, angle })
+    }
+
+    /// Whether `(u1, u2)` at `pose` lie more than 180° round from the rest fold the other way:
+    /// their fold angle `ψ` about the carried sense (in `(-π, π]`) below `ψ_rest - π`.
+    fn passed(
+        &self,
+        pose: &Pose,
+        pair: &super::JointPair,
+        u1: &Vector3<f64>,
+        u2: &Vector3<f64>,
+    ) -> bool {
+        let Some(sense) = pose
+            .world
+            .get(pair.parent_joint)
+            .and_then(|m| unit(m.transform_vector(&self.sense)))
+        else {
+            return false;
+        };
+        let psi = (-u1).cross(u2).dot(&sense).atan2(-u1.dot(u2));
+        psi < self.angle - std::f64::consts::PI
+    }
 }
 
 impl BoneAxes {
@@ -147,6 +207,7 @@ impl BoneAxes {
             leaf_axis: None,
             source: LeafAxisSource::None,
             variances: [0.0; 3],
+            rest_fold: None,
         };
         let Some(body) = rig.bodies.get(pair.body) else {
             return none;
@@ -154,9 +215,11 @@ impl BoneAxes {
         let Some(skin) = rig.skins.get(body.skin) else {
             return none;
         };
+        let rest = rig.pose_at(None, 0.0);
         if let Some(end) = pair.bone_end {
             return Self {
                 source: LeafAxisSource::ChildJoint(end),
+                rest_fold: RestFold::at(&rest, pair, None),
                 ..none
             };
         }
@@ -180,7 +243,13 @@ impl BoneAxes {
             })
             .map(|p| ibm.transform_point(p).coords)
             .collect();
-        leaf_axis(&local).unwrap_or(none)
+        let Some(axes) = leaf_axis(&local) else {
+            return none;
+        };
+        Self {
+            rest_fold: RestFold::at(&rest, pair, axes.leaf_axis),
+            ..axes
+        }
     }
 }
 
@@ -215,27 +284,49 @@ fn leaf_axis(points: &[Vector3<f64>]) -> Option<BoneAxes> {
             leaf_axis: Some(a),
             source: LeafAxisSource::PrincipalAxis,
             variances,
+            rest_fold: None,
         });
     }
     to_centroid.map(|c| BoneAxes {
         leaf_axis: Some(c),
         source: LeafAxisSource::Centroid,
         variances,
+        rest_fold: None,
     })
 }
 
 /// `d̂_12 = normalize(u2 - u1)` at `pose` (see the module doc; 2021 Sec. 6, "Mapping
-/// direction").
+/// direction"), reversed past a full fold from a rest pose folded past 90°
+/// ([`BoneAxes::rest_fold`]).
 ///
-/// `leaf_axis` is [`BoneAxes::leaf_axis`]: the far end of a leaf child joint's bone, in that
-/// joint's local frame; it is ignored when the child joint has a child joint. `None` when the
-/// bones fold onto each other (180°), when a bone has zero length, when a leaf joint has no
-/// axis, or when a node is missing from the pose.
+/// `axes.leaf_axis` is the far end of a leaf child joint's bone, in that joint's local frame;
+/// it is ignored when the child joint has a child joint. `None` when the bones fold onto each
+/// other (180°), when a bone has zero length, when a leaf joint has no axis, or when a node is
+/// missing from the pose.
 pub fn skeleton_direction(
     pose: &Pose,
     pair: &super::JointPair,
-    leaf_axis: Option<Vector3<f64>>,
+    axes: &BoneAxes,
 ) -> Option<Vector3<f64>> {
+    let (u1, u2) = bone_directions(pose, pair, axes.leaf_axis)?;
+    let d = u2 - u1;
+    let norm = d.norm();
+    if !(norm > DEGENERATE_NORM && norm.is_finite()) {
+        return None;
+    }
+    let passed = axes
+        .rest_fold
+        .is_some_and(|f| f.passed(pose, pair, &u1, &u2));
+    Some(if passed { -d / norm } else { d / norm })
+}
+
+/// `(u1, u2)` at `pose`: the unit vectors from the child joint toward the parent joint and
+/// toward the child bone's far end (`leaf_axis` in the child joint's frame for a leaf joint).
+fn bone_directions(
+    pose: &Pose,
+    pair: &super::JointPair,
+    leaf_axis: Option<Vector3<f64>>,
+) -> Option<(Vector3<f64>, Vector3<f64>)> {
     let world = |node: usize| pose.world.get(node);
     let position = |m: &Matrix4<f64>| m.transform_point(&Point3::origin());
     let child_world = world(pair.child_joint)?;
@@ -245,10 +336,7 @@ pub fn skeleton_direction(
         Some(end) => position(world(end)?) - joint,
         None => child_world.transform_vector(&leaf_axis?),
     };
-    let u2 = unit(toward_end)?;
-    let d = u2 - u1;
-    let norm = d.norm();
-    (norm > DEGENERATE_NORM && norm.is_finite()).then(|| d / norm)
+    Some((u1, unit(toward_end)?))
 }
 
 /// `v / |v|`, or `None` for a zero or non-finite vector.
@@ -308,6 +396,82 @@ mod tests {
             .sum::<Vector3<f64>>()
             .normalize();
         assert!((d - expected).norm() < 1e-12, "{d:?} against {expected:?}");
+    }
+
+    /// A hinge at the child joint `(1, 0, 0)`, the parent joint at the origin: the child
+    /// joint turned by `turn` degrees about +z, the whole skeleton then carried by `carry`.
+    fn hinge(turn: f64, carry: Matrix4<f64>) -> Pose {
+        let rotation = Rotation3::from_axis_angle(&Vector3::z_axis(), turn.to_radians());
+        let child = Matrix4::<f64>::new_translation(&Vector3::x()) * rotation.to_homogeneous();
+        pose(carry, carry * child)
+    }
+
+    /// The axes of a leaf child joint whose bone leaves at `rest_degrees` about +z from the
+    /// parent bone's continuation `+x` in the rest pose (`hinge(0)`).
+    fn axes_at(rest_degrees: f64) -> BoneAxes {
+        let r = rest_degrees.to_radians();
+        let axis = Vector3::new(r.cos(), r.sin(), 0.0);
+        BoneAxes {
+            leaf_axis: Some(axis),
+            source: LeafAxisSource::PrincipalAxis,
+            variances: [0.0; 3],
+            rest_fold: RestFold::at(&hinge(0.0, Matrix4::identity()), &pair(), Some(axis)),
+        }
+    }
+
+    /// `(cos a, sin a, 0)` for `a` in degrees.
+    fn planar(degrees: f64) -> Vector3<f64> {
+        let a = degrees.to_radians();
+        Vector3::new(a.cos(), a.sin(), 0.0)
+    }
+
+    #[test]
+    fn a_rest_pose_folded_past_90_degrees_keeps_its_sense_past_a_full_fold() {
+        // The mouth's case: the bones 9° apart at rest (ψ = 171°), the fold closing on to 200°.
+        let axes = axes_at(171.0);
+        let fold = axes.rest_fold.expect("folded past 90° at rest");
+        assert!((fold.angle - 171f64.to_radians()).abs() < 1e-12);
+        assert!((fold.sense - Vector3::z()).norm() < 1e-12);
+        // A turn of the whole skeleton turns the direction with it.
+        let carry = Rotation3::from_axis_angle(&Vector3::x_axis(), 0.7).to_homogeneous();
+        for psi in [171.0, 175.0, 179.0, 181.0, 185.0, 200.0, 340.0] {
+            for c in [Matrix4::identity(), carry] {
+                let d = skeleton_direction(&hinge(psi - 171.0, c), &pair(), &axes)
+                    .expect("a direction");
+                // `-u1` turned by ψ/2 about the sense: continuous through 180°.
+                let expected = c.transform_vector(&planar(psi / 2.0));
+                assert!((d - expected).norm() < 1e-9, "ψ = {psi}: {d:?}");
+            }
+        }
+        // The full fold itself stays degenerate.
+        assert_eq!(
+            skeleton_direction(&hinge(9.0, Matrix4::identity()), &pair(), &axes),
+            None
+        );
+        // Opening the fold is unchanged: straight, then bent back less than 180° from rest.
+        for psi in [90.0, 0.0, -8.0] {
+            let d = skeleton_direction(&hinge(psi - 171.0, Matrix4::identity()), &pair(), &axes)
+                .expect("a direction");
+            assert!((d - planar(psi / 2.0)).norm() < 1e-9, "ψ = {psi}: {d:?}");
+        }
+    }
+
+    #[test]
+    fn a_rest_pose_folded_90_degrees_or_less_sets_no_sense() {
+        for rest in [0.0, 10.0, -30.0, 90.0] {
+            let axes = axes_at(rest);
+            assert_eq!(axes.rest_fold, None, "rest fold {rest}°");
+            // `normalize(u2 - u1)` in every pose: past 180° it turns over.
+            for psi in [45.0, 179.0, 181.0, 250.0] {
+                let d = skeleton_direction(&hinge(psi - rest, Matrix4::identity()), &pair(), &axes)
+                    .expect("a direction");
+                let expected = (planar(psi) + Vector3::x()).normalize();
+                assert!(
+                    (d - expected).norm() < 1e-9,
+                    "rest {rest}°, ψ = {psi}: {d:?}"
+                );
+            }
+        }
     }
 
     #[test]

@@ -35,7 +35,7 @@ pub mod pass;
 pub mod regions;
 pub mod turn_guard;
 
-pub use direction::{skeleton_direction, BoneAxes, DirectionSource, LeafAxisSource};
+pub use direction::{skeleton_direction, BoneAxes, DirectionSource, LeafAxisSource, RestFold};
 pub use joint_tree::{JointTree, TreeSource};
 pub use partition::{partition_of_unity, partition_of_unity_with_stats, PartitionStats};
 pub use regions::{
