@@ -1095,11 +1095,12 @@ impl ContactConfig {
     }
 
     /// Whether resolving `[self_contact]` needs the rig's derived joint pairs: pair names to
-    /// check, or an `extent_factor` (relative to the bodies that have pairs).
+    /// check, an `extent_factor` (relative to the bodies that have pairs), or a `direction`
+    /// for every pair not named (given to each derived pair).
     pub fn self_contact_needs_pairs(&self) -> bool {
-        self.self_contact
-            .as_ref()
-            .is_some_and(|s| !s.pairs.is_empty() || s.extent_factor.is_some())
+        self.self_contact.as_ref().is_some_and(|s| {
+            !s.pairs.is_empty() || s.extent_factor.is_some() || s.direction.is_some()
+        })
     }
 
     /// Resolves `[self_contact]` against `rig` (`welded`: its welded bodies, in body order),

@@ -983,16 +983,21 @@ fn self_contact_direction_modes_parse_and_resolve() {
             ("lips/other-pair".to_string(), DirectionSource::Motion),
         ]
     );
-    let cfg = write_config(
-        &dir,
+    // Per pair, or for every pair from the section alone (which `pose` once left unapplied:
+    // without a pair named, the pairs were not derived and the mode reached none of them).
+    for text in [
         "[[self_contact.pair]]\nname = \"lips/head-jaw\"\ndirection = \"motion\"\n",
-    )
-    .expect("parses");
-    let settings = cfg.resolve_self_contact(&rig, &welded).expect("resolves");
-    assert_eq!(
-        settings.directions,
-        vec![("lips/head-jaw".to_string(), DirectionSource::Motion)]
-    );
+        "[self_contact]\ndirection = \"motion\"\n",
+    ] {
+        let cfg = write_config(&dir, text).expect("parses");
+        assert!(cfg.self_contact_needs_pairs(), "{text}");
+        let settings = cfg.resolve_self_contact(&rig, &welded).expect("resolves");
+        assert_eq!(
+            settings.directions,
+            vec![("lips/head-jaw".to_string(), DirectionSource::Motion)],
+            "{text}"
+        );
+    }
     for (text, field) in [
         (
             "[[self_contact.pair]]\nname = \"lips/head-jaw\"\ndirection = \"sideways\"\n",

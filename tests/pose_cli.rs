@@ -997,6 +997,39 @@ fn self_contact_follows_its_configuration() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// `[self_contact] direction` reaches every pair `pose` derives: the section alone gives the
+/// same frames as the mode named for the pair, not the default (it once reached no pair: the
+/// pairs were derived for the configuration only when one was named, so `pose` ran the
+/// skeleton's direction while `info` reported the section's).
+#[test]
+fn the_sections_direction_reaches_every_pair() {
+    let (dir, rig_path) = committed_copy("mouth", "selfdir");
+    let config = dir.join("mouth.contact.toml");
+    let frame = |text: &str, label: &str| {
+        std::fs::write(&config, text).expect("config");
+        let out = dir.join(label);
+        pose_frames(&rig_path, &out, "31", &[]);
+        // Frame 25: the lips closed, folded in every mode.
+        let obj = std::fs::read_to_string(out.join("frame_0025.obj")).expect("frame");
+        obj_vertices(&obj)
+    };
+    let section = frame("[self_contact]\ndirection = \"motion\"\n", "section");
+    let named = frame(
+        "[[self_contact.pair]]\nname = \"lips/head-jaw\"\ndirection = \"motion\"\n",
+        "named",
+    );
+    let default = frame("[self_contact]\n", "default");
+    assert!(
+        section == named,
+        "the section's mode is not the one named for the pair"
+    );
+    assert!(
+        section != default,
+        "the motion's direction is not the skeleton's"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// The file `name` of two output folders (runs with 1 and 2 threads): bit-identical; its bytes.
 fn same_bytes(a: &Path, b: &Path, name: &str) -> Vec<u8> {
     let fa = std::fs::read(a.join(name)).expect("frame");

@@ -80,7 +80,9 @@ pub struct Args {
     /// exists, else the default parameters.
     #[arg(long, value_name = "PATH")]
     config: Option<PathBuf>,
-    /// Contact passes per frame (overrides the configuration; default 2, 1 is the paper's).
+    /// Passes per frame of the contact pass between objects (overrides the configuration's
+    /// `passes`; default 2, 1 is the paper's). The self-contact pass's sweeps are set by
+    /// `[self_contact] passes` in the configuration.
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=16))]
     passes: Option<u64>,
     /// Also write `frame_NNNN.diag.json` per frame: per body and file vertex u, zone,
