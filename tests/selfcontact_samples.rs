@@ -233,6 +233,55 @@ fn real_characters_never_get_worse() {
     }
 }
 
+/// The skeleton's direction keeps a rest fold's sense past a full fold only for a leaf joint,
+/// whose "bone" is the direction of its vertices (`contact_skin::selfcontact::RestFold`; the
+/// mouth's lower lip, tested in `tests/selfcontact.rs`): an articulation that opens the other
+/// way folds the other way. Fox's hip-to-leg pairs are folded 132° at rest (the angle here from
+/// the joints' rest positions) and get none; no sample has a leaf pair folded past 90° at rest.
+#[test]
+fn only_leaf_joints_keep_a_rest_fold() {
+    use contact_skin::selfcontact::BoneAxes;
+    let mut folded_articulations = 0;
+    for rel in [
+        "CesiumMan/CesiumMan.glb",
+        "Fox/Fox.glb",
+        "QuaterniusRobot/robot.glb",
+        "WebXRGenericHand/left.glb",
+        "RiggedFigure/RiggedFigure.glb",
+    ] {
+        let Some(path) = sample(rel) else {
+            continue;
+        };
+        let rig = rig::load(&path).expect("sample loads");
+        let pre = Precomputed::new(&rig, Method::Lbs);
+        let (pairs, _) =
+            derive_pairs_reporting(&rig, &pre.welded, &RegionOptions::default()).expect("pairs");
+        let rest = rig.pose_at(None, 0.0);
+        let at = |n: usize| rest.world[n].transform_point(&Point3::origin());
+        for p in &pairs {
+            let axes = BoneAxes::new(&rig, &pre.welded[p.pair.body], p);
+            let name = &p.pair.name;
+            match p.pair.bone_end {
+                Some(end) => {
+                    assert_eq!(axes.rest_fold, None, "{rel} {name}: an articulation");
+                    let joint = at(p.pair.child_joint);
+                    let u1 = (at(p.pair.parent_joint) - joint).normalize();
+                    let u2 = (at(end) - joint).normalize();
+                    // Folded past 90°: the bones within 90° of each other.
+                    folded_articulations += usize::from(u1.dot(&u2) > 0.0);
+                }
+                None => assert_eq!(axes.rest_fold, None, "{rel} {name}: folded at rest"),
+            }
+        }
+    }
+    if sample("Fox/Fox.glb").is_some() {
+        assert!(
+            folded_articulations >= 2,
+            "Fox's hips: {folded_articulations}"
+        );
+    }
+}
+
 /// CesiumMan's hands (node14-node15, node17-node18) are short end segments of a coarse mesh:
 /// their regions grown by the default 2 rings leave nothing of the hand outside the shared
 /// region, and they used to be skipped. They are derived with fewer rings now, with a valid

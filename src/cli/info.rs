@@ -86,9 +86,10 @@ struct SelfPairInfo {
     direction: Option<[f64; 3]>,
     /// Where the direction comes from: `"skeleton"`, `"fixed"` or `"motion"`.
     direction_source: &'static str,
-    /// The bones' fold angle at rest in degrees when it exceeds 90° (the skeleton's direction
-    /// keeps that fold's sense past a full fold: `contact_skin::selfcontact::RestFold`);
-    /// `null` otherwise.
+    /// A leaf joint pair's fold angle at rest in degrees when it exceeds 90° (the skeleton's
+    /// direction keeps that fold's sense past a full fold:
+    /// `contact_skin::selfcontact::RestFold`); `null` otherwise. Given whatever the pair's
+    /// direction source (the text report shows it for the skeleton's only).
     rest_fold_degrees: Option<f64>,
     /// The same, for the text report.
     #[serde(skip)]

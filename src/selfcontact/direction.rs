@@ -14,17 +14,25 @@
 //! body's skin; for a leaf joint it is `J` plus an axis precomputed from the rest vertices of
 //! `W2 \ R` ([`BoneAxes`]), carried by the child joint's world transform.
 //!
-//! **Past a full fold.** The paper's "orthogonal to the bisector" has two senses; `u2 - u1`
-//! picks the one that holds while the fold angle stays below 180°, and turns over when the
-//! bones pass each other. That happens where the rest pose is already folded far: the mouth's
-//! bones (from the jaw joint toward the head joint, and toward the lower lip) are 9° apart at
-//! rest, and closing the jaw sweeps the lip's direction past the head's, which reversed `d̂`
-//! (to the lips' inside) in the closed frames. A rest pose folded past 90° therefore sets the
-//! fold's sense ([`RestFold`]), and a pose more than 180° round from it the other way keeps
-//! that sense: `d̂ = -normalize(u2 - u1)` there. This is still time-independent (the pose and the
-//! rest pose only), and nothing changes for rest poses folded 90° or less (straight fingers,
-//! capsules, characters in T- or A-pose).
-
+//! **Past a full fold, for a leaf joint's proxy bone.** The paper's "orthogonal to the
+//! bisector" has two senses; `u2 - u1` picks the one that holds while the fold angle stays below
+//! 180° (`PIPELINE.md`: the direction "degenerates only at a full 180° fold"), and turns over
+//! when the bones pass each other. For a leaf child joint, `u2` is no bone but the direction of
+//! its vertices ([`BoneAxes`]), which need not continue the parent bone: the mouth's (from the
+//! jaw joint toward the head joint, and toward the lower lip) are 9° apart at rest, and closing
+//! the jaw sweeps the lip's past the head's, which reversed `d̂` (into the lips) in the closed
+//! frames. The paper sets the lips' direction by hand ("the mouth which is not an
+//! articulation", Sec. 6). So, for a leaf joint whose rest pose folds them past 90° only
+//! ([`RestFold`]), the rest fold's sense is kept past a full fold: where the fold angle `ψ`,
+//! measured about the rest sense carried by the parent joint, is below `ψ_rest - π`,
+//! `d̂ = -normalize(u2 - u1)`. This choice is ours (the design note does not make it) and has
+//! its own cut: opening the pair by more than `π - ψ_rest` past straight (9° for the mouth's
+//! jaw, which would have to open 180° from rest) reverses `d̂` there instead. It is only decided
+//! while the bones' plane lies within 60° of the carried rest plane (else `u2 - u1` as is), so
+//! that a proxy swinging out of that plane does not switch it on noise. A real bone (a child
+//! joint with a child joint) keeps `normalize(u2 - u1)` in every pose: a joint that opens the
+//! other way folds the other way.
+//!
 use super::regions::PairRegions;
 use crate::mesh::WeldedMesh;
 use crate::rig::{Pose, Rig};
@@ -148,38 +156,49 @@ pub struct BoneAxes {
     /// Eigenvalues of the covariance of `W2 \ R`'s rest vertices, largest first (zero when
     /// not computed).
     pub variances: [f64; 3],
-    /// The rest pose's fold when it folds the bones past 90° (see the module doc); `None`
-    /// otherwise.
+    /// For a leaf child joint, the rest pose's fold when it folds the bones past 90° (see the
+    /// module doc); `None` otherwise.
     pub rest_fold: Option<RestFold>,
 }
 
-/// A pair's fold at rest, for rest poses folded past 90° (see the module doc).
+/// A leaf joint pair's fold at rest, for rest poses folded past 90° (see the module doc).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RestFold {
     /// The sense of the fold: the unit normal `(-u1) × u2` of the bones' plane at rest, in the
     /// parent joint's frame (carried by its world transform in a pose).
     pub sense: Vector3<f64>,
-    /// The fold angle at rest, `ψ_rest` in radians (between π/2 and π): the angle from the
+    /// The fold angle at rest, `ψ_rest` in radians (above π/2, below π): the angle from the
     /// parent bone's continuation `-u1` to `u2` about `sense`.
     pub angle: f64,
 }
 
+/// Cosine of the largest angle between the bones' plane and the carried rest plane at which
+/// [`RestFold`] still decides the sense (60°).
+const REST_PLANE_COS: f64 = 0.5;
+
+/// The fold angle of `(u1, u2)` about the unit `axis`: from `-u1` to `u2`, in `(-π, π]`.
+fn fold_angle(u1: &Vector3<f64>, u2: &Vector3<f64>, axis: &Vector3<f64>) -> f64 {
+    (-u1).cross(u2).dot(axis).atan2(-u1.dot(u2))
+}
+
 impl RestFold {
-    /// The rest fold of `pair` at `rest` (the rest pose), when it exceeds 90°.
+    /// The rest fold of `pair` at `rest` (the rest pose), when it lies strictly between 90°
+    /// and 180° (at 180° the bones' plane is undefined).
     fn at(rest: &Pose, pair: &super::JointPair, leaf_axis: Option<Vector3<f64>>) -> Option<Self> {
         let (u1, u2) = bone_directions(rest, pair, leaf_axis)?;
-        let normal = (-u1).cross(&u2);
-        let angle = normal.norm().atan2(-u1.dot(&u2));
+        let normal = unit((-u1).cross(&u2))?;
+        let angle = fold_angle(&u1, &u2, &normal);
         if angle <= std::f64::consts::FRAC_PI_2 {
             return None;
         }
         let to_parent = rest.world.get(pair.parent_joint)?.try_inverse()?;
-        let sense = unit(to_parent.transform_vector(&unit(normal)?))?;
+        let sense = unit(to_parent.transform_vector(&normal))?;
         Some(Self { sense, angle })
     }
 
-    /// Whether `(u1, u2)` at `pose` lie more than 180° round from the rest fold the other way:
-    /// their fold angle `ψ` about the carried sense (in `(-π, π]`) below `ψ_rest - π`.
+    /// Whether `(u1, u2)` at `pose` lie past the full fold from the rest fold: their fold
+    /// angle about the carried sense below `ψ_rest - π`, their plane within 60° of the carried
+    /// rest plane.
     fn passed(
         &self,
         pose: &Pose,
@@ -194,8 +213,9 @@ impl RestFold {
         else {
             return false;
         };
-        let psi = (-u1).cross(u2).dot(&sense).atan2(-u1.dot(u2));
-        psi < self.angle - std::f64::consts::PI
+        let normal = (-u1).cross(u2);
+        let in_plane = normal.dot(&sense).abs() >= REST_PLANE_COS * normal.norm();
+        in_plane && fold_angle(u1, u2, &sense) < self.angle - std::f64::consts::PI
     }
 }
 
@@ -215,11 +235,9 @@ impl BoneAxes {
         let Some(skin) = rig.skins.get(body.skin) else {
             return none;
         };
-        let rest = rig.pose_at(None, 0.0);
         if let Some(end) = pair.bone_end {
             return Self {
                 source: LeafAxisSource::ChildJoint(end),
-                rest_fold: RestFold::at(&rest, pair, None),
                 ..none
             };
         }
@@ -247,7 +265,7 @@ impl BoneAxes {
             return none;
         };
         Self {
-            rest_fold: RestFold::at(&rest, pair, axes.leaf_axis),
+            rest_fold: RestFold::at(&rig.pose_at(None, 0.0), pair, axes.leaf_axis),
             ..axes
         }
     }
@@ -296,7 +314,7 @@ fn leaf_axis(points: &[Vector3<f64>]) -> Option<BoneAxes> {
 }
 
 /// `d̂_12 = normalize(u2 - u1)` at `pose` (see the module doc; 2021 Sec. 6, "Mapping
-/// direction"), reversed past a full fold from a rest pose folded past 90°
+/// direction"), reversed past a full fold from a leaf joint's rest pose folded past 90°
 /// ([`BoneAxes::rest_fold`]).
 ///
 /// `axes.leaf_axis` is the far end of a leaf child joint's bone, in that joint's local frame;
@@ -409,8 +427,7 @@ mod tests {
     /// The axes of a leaf child joint whose bone leaves at `rest_degrees` about +z from the
     /// parent bone's continuation `+x` in the rest pose (`hinge(0)`).
     fn axes_at(rest_degrees: f64) -> BoneAxes {
-        let r = rest_degrees.to_radians();
-        let axis = Vector3::new(r.cos(), r.sin(), 0.0);
+        let axis = planar(rest_degrees);
         BoneAxes {
             leaf_axis: Some(axis),
             source: LeafAxisSource::PrincipalAxis,
@@ -448,12 +465,59 @@ mod tests {
             skeleton_direction(&hinge(9.0, Matrix4::identity()), &pair(), &axes),
             None
         );
-        // Opening the fold is unchanged: straight, then bent back less than 180° from rest.
-        for psi in [90.0, 0.0, -8.0] {
+        // Opening the fold is unchanged: straight, then bent back less than 180° from rest;
+        // the rule's own cut lies beyond, 9° past straight (the module doc).
+        for psi in [90.0, 0.0, -8.0, -10.0] {
             let d = skeleton_direction(&hinge(psi - 171.0, Matrix4::identity()), &pair(), &axes)
                 .expect("a direction");
-            assert!((d - planar(psi / 2.0)).norm() < 1e-9, "ψ = {psi}: {d:?}");
+            let expected = if psi < -9.0 { -1.0 } else { 1.0 } * planar(psi / 2.0);
+            assert!((d - expected).norm() < 1e-9, "ψ = {psi}: {d:?}");
         }
+        // The sense is the parent's: a twist of the child about its own bone leaves `u2`, hence
+        // the direction, as it is; a uniformly scaled skeleton too.
+        let twist = Rotation3::from_axis_angle(
+            &nalgebra::Unit::new_normalize(axes.leaf_axis.expect("axis")),
+            1.2,
+        )
+        .to_homogeneous();
+        let scaled = Matrix4::new_scaling(3.0);
+        for psi in [185.0, -8.0] {
+            let plain =
+                skeleton_direction(&hinge(psi - 171.0, Matrix4::identity()), &pair(), &axes);
+            let mut twisted = hinge(psi - 171.0, Matrix4::identity());
+            twisted.world[1] *= twist;
+            let twisted = skeleton_direction(&twisted, &pair(), &axes);
+            let big = skeleton_direction(&hinge(psi - 171.0, scaled), &pair(), &axes);
+            let plain = plain.expect("a direction");
+            for d in [twisted, big] {
+                assert!((d.expect("a direction") - plain).norm() < 1e-9, "ψ = {psi}");
+            }
+        }
+    }
+
+    /// Out of the rest plane the rule stands aside: the child's proxy bone swung 30° out of it
+    /// across the parent's plane (azimuth 180°, where the fold angle about the rest sense
+    /// jumps by 2π) keeps `normalize(u2 - u1)`, continuous there.
+    #[test]
+    fn a_proxy_bone_out_of_the_rest_plane_keeps_the_plain_direction() {
+        let axes = axes_at(171.0);
+        let axis = axes.leaf_axis.expect("axis");
+        let toward = |azimuth: f64| {
+            let (a, e) = (azimuth.to_radians(), 30f64.to_radians());
+            let target = Vector3::new(e.cos() * a.cos(), e.cos() * a.sin(), e.sin());
+            let turn = Rotation3::rotation_between(&axis, &target).expect("a rotation");
+            let child = Matrix4::<f64>::new_translation(&Vector3::x()) * turn.to_homogeneous();
+            (pose(Matrix4::identity(), child), target)
+        };
+        let mut directions = Vec::new();
+        for azimuth in [179.9, 180.1] {
+            let (p, u2) = toward(azimuth);
+            let d = skeleton_direction(&p, &pair(), &axes).expect("a direction");
+            let plain = (u2 + Vector3::x()).normalize();
+            assert!((d - plain).norm() < 1e-9, "azimuth {azimuth}: {d:?}");
+            directions.push(d);
+        }
+        assert!((directions[0] - directions[1]).norm() < 0.01);
     }
 
     #[test]
