@@ -10,7 +10,7 @@ use contact_skin::report::metrics;
 use contact_skin::rig;
 use contact_skin::selfcontact::fold::FoldParams;
 use contact_skin::selfcontact::pass::{SelfContactPass, SelfPassOutput};
-use contact_skin::selfcontact::{derive_pairs_reporting, RegionOptions};
+use contact_skin::selfcontact::{derive_pairs_reporting, PairRegions, RegionOptions};
 use contact_skin::skinning::Method;
 use nalgebra::{Point3, Vector3};
 use std::path::Path;
@@ -185,17 +185,20 @@ fn run_sample(rel: &str, path: &Path, params: FoldParams) -> Summary {
     sum
 }
 
+/// The skinned characters of `../shared/gltf-samples/`.
+const CHARACTERS: [&str; 7] = [
+    "CesiumMan/CesiumMan.glb",
+    "Fox/Fox.glb",
+    "QuaterniusRobot/robot.glb",
+    "WebXRGenericHand/left.glb",
+    "RiggedFigure/RiggedFigure.glb",
+    "RiggedSimple/RiggedSimple.glb",
+    "SimpleSkin/SimpleSkin.gltf",
+];
+
 #[test]
 fn real_characters_never_get_worse() {
-    for rel in [
-        "CesiumMan/CesiumMan.glb",
-        "Fox/Fox.glb",
-        "QuaterniusRobot/robot.glb",
-        "WebXRGenericHand/left.glb",
-        "RiggedFigure/RiggedFigure.glb",
-        "RiggedSimple/RiggedSimple.glb",
-        "SimpleSkin/SimpleSkin.gltf",
-    ] {
+    for rel in CHARACTERS {
         let Some(path) = sample(rel) else {
             continue;
         };
@@ -233,6 +236,16 @@ fn real_characters_never_get_worse() {
     }
 }
 
+/// The sample at `path` loaded for LBS and its joint pairs with the default options, with
+/// the reasons of those skipped.
+fn derived_pairs(path: &Path) -> (rig::Rig, Precomputed, Vec<PairRegions>, Vec<String>) {
+    let rig = rig::load(path).expect("sample loads");
+    let pre = Precomputed::new(&rig, Method::Lbs);
+    let (pairs, skipped) =
+        derive_pairs_reporting(&rig, &pre.welded, &RegionOptions::default()).expect("pairs");
+    (rig, pre, pairs, skipped)
+}
+
 /// The skeleton's direction keeps a rest fold's sense past a full fold only for a leaf joint,
 /// whose "bone" is the direction of its vertices (`contact_skin::selfcontact::RestFold`; the
 /// mouth's lower lip, tested in `tests/selfcontact.rs`): an articulation that opens the other
@@ -242,20 +255,11 @@ fn real_characters_never_get_worse() {
 fn only_leaf_joints_keep_a_rest_fold() {
     use contact_skin::selfcontact::BoneAxes;
     let mut folded_articulations = 0;
-    for rel in [
-        "CesiumMan/CesiumMan.glb",
-        "Fox/Fox.glb",
-        "QuaterniusRobot/robot.glb",
-        "WebXRGenericHand/left.glb",
-        "RiggedFigure/RiggedFigure.glb",
-    ] {
+    for rel in CHARACTERS {
         let Some(path) = sample(rel) else {
             continue;
         };
-        let rig = rig::load(&path).expect("sample loads");
-        let pre = Precomputed::new(&rig, Method::Lbs);
-        let (pairs, _) =
-            derive_pairs_reporting(&rig, &pre.welded, &RegionOptions::default()).expect("pairs");
+        let (rig, pre, pairs, _) = derived_pairs(&path);
         let rest = rig.pose_at(None, 0.0);
         let at = |n: usize| rest.world[n].transform_point(&Point3::origin());
         for p in &pairs {
@@ -295,10 +299,7 @@ fn cesium_man_hands_are_derived_with_fewer_rings() {
     let Some(path) = sample(rel) else {
         return;
     };
-    let rig = rig::load(&path).expect("sample loads");
-    let pre = Precomputed::new(&rig, Method::Lbs);
-    let (pairs, skipped) =
-        derive_pairs_reporting(&rig, &pre.welded, &RegionOptions::default()).expect("pairs");
+    let (_, _, pairs, skipped) = derived_pairs(&path);
     assert!(skipped.is_empty(), "{skipped:?}");
     for hand in ["Cesium_Man/node14-node15", "Cesium_Man/node17-node18"] {
         let p = pairs
