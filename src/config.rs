@@ -20,7 +20,8 @@
 //! direction = [0.0, 1.0, 0.0]     # or direction_keys = [[t, x, y, z], ...]
 //! [self_contact]                  # optional: joints folding into themselves
 //! enabled = true
-//! passes = 2                      # sweeps over the folds per frame
+//! passes = 2                      # sweeps over the folds per frame (exactly, when given)
+//! max_passes = 4                  # further sweeps while a body still penetrates (default: none)
 //! threshold = 0.05                # RegionOptions::threshold
 //! grow_rings = 2
 //! stiffness = 0.5                 # k̄ of the parent side, in [0, 1]
@@ -454,6 +455,9 @@ pub struct SelfContactSpec {
     /// Sweeps over the folds per frame
     /// ([`crate::selfcontact::pass::SelfContactPass::with_passes`]).
     pub passes: Option<usize>,
+    /// Largest number of sweeps, the ones past `passes` run only while a body still penetrates
+    /// ([`crate::selfcontact::pass::SelfContactPass::with_max_passes`]; default `passes`).
+    pub max_passes: Option<usize>,
     /// [`RegionOptions::threshold`]: weight above which a vertex belongs to a working region.
     pub threshold: Option<f64>,
     /// [`RegionOptions::grow_rings`].
@@ -510,6 +514,8 @@ pub struct SelfContactSettings {
     pub directions: Vec<(String, DirectionSource)>,
     /// Sweeps over the folds per frame.
     pub passes: usize,
+    /// Largest number of sweeps per frame (at least `passes`).
+    pub max_passes: usize,
 }
 
 /// A rig's contact configuration (see the module documentation).
@@ -693,11 +699,21 @@ impl ContactConfig {
 
     fn check_self_contact(&self, sc: &SelfContactSpec) -> Result<(), ConfigError> {
         let at = "self_contact";
-        if let Some(p) = sc.passes {
-            if !(1..=MAX_PASSES).contains(&p) {
+        for (field, value) in [("passes", sc.passes), ("max_passes", sc.max_passes)] {
+            if let Some(p) = value {
+                if !(1..=MAX_PASSES).contains(&p) {
+                    return Err(self.invalid(
+                        format!("{at}.{field}"),
+                        format!("{p} is not in 1..={MAX_PASSES}"),
+                    ));
+                }
+            }
+        }
+        if let (Some(p), Some(m)) = (sc.passes, sc.max_passes) {
+            if m < p {
                 return Err(self.invalid(
-                    format!("{at}.passes"),
-                    format!("{p} is not in 1..={MAX_PASSES}"),
+                    format!("{at}.max_passes"),
+                    format!("{m} is below passes = {p}"),
                 ));
             }
         }
@@ -1188,6 +1204,11 @@ impl ContactConfig {
             params.deform.extent = extent;
             params.joint_extent = None;
         }
+        // `max_passes` alone bounds the default count too.
+        let passes = spec
+            .passes
+            .unwrap_or(DEFAULT_FOLD_PASSES.min(spec.max_passes.unwrap_or(usize::MAX)));
+        let max_passes = spec.max_passes.unwrap_or(passes);
         let mut directions = Vec::with_capacity(derived.len());
         for (j, p) in spec.pairs.iter().enumerate() {
             let at = format!("self_contact.pair[{j}]");
@@ -1223,7 +1244,8 @@ impl ContactConfig {
             regions: self.self_contact_regions(),
             params,
             directions,
-            passes: spec.passes.unwrap_or(DEFAULT_FOLD_PASSES),
+            passes,
+            max_passes,
         })
     }
 }

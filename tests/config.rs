@@ -727,6 +727,7 @@ fn the_self_contact_table_parses_and_resolves() {
             DirectionSource::Fixed(-Vector3::y()),
         )],
         passes: 1,
+        max_passes: 1,
     };
     assert_eq!(settings, expected);
     // The same from the pairs given by the caller (as the pass lists them).
@@ -737,6 +738,41 @@ fn the_self_contact_table_parses_and_resolves() {
     // The object pass's parameters are not affected by the table.
     let (objects, _, _) = cfg.resolve(&rig, &welded).expect("object pass resolves");
     assert_eq!(objects[0].stiffness, 2.0);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `passes` is the sweep count (default 2); `max_passes` allows sweeps past it while a body
+/// still penetrates (default none), and alone bounds both; it cannot be below `passes`.
+#[test]
+fn the_sweeps_are_a_count_and_a_bound() {
+    let dir = mouth_dir("sweeps");
+    for (text, passes, max) in [
+        ("[self_contact]\n", DEFAULT_FOLD_PASSES, DEFAULT_FOLD_PASSES),
+        ("[self_contact]\npasses = 3\n", 3, 3),
+        ("[self_contact]\nmax_passes = 3\n", DEFAULT_FOLD_PASSES, 3),
+        ("[self_contact]\nmax_passes = 1\n", 1, 1),
+        ("[self_contact]\npasses = 1\nmax_passes = 5\n", 1, 5),
+    ] {
+        let s = resolve_self(&dir, text).expect(text);
+        assert_eq!((s.passes, s.max_passes), (passes, max), "{text}");
+    }
+    for (text, field) in [
+        (
+            "[self_contact]\npasses = 3\nmax_passes = 2\n",
+            "self_contact.max_passes",
+        ),
+        (
+            "[self_contact]\nmax_passes = 0\n",
+            "self_contact.max_passes",
+        ),
+        (
+            "[self_contact]\nmax_passes = 100\n",
+            "self_contact.max_passes",
+        ),
+    ] {
+        let e = resolve_self(&dir, text).expect_err(text);
+        assert!(e.to_string().contains(field), "{text}: {e}");
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -777,6 +813,7 @@ fn without_a_self_contact_table_the_pass_defaults_apply() {
         params: FoldParams::default(),
         directions: Vec::new(),
         passes: DEFAULT_FOLD_PASSES,
+        max_passes: DEFAULT_FOLD_PASSES,
     };
     // Without a table the pass is off (opt-in while experimental); an empty table turns it
     // on with the defaults.

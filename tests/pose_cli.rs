@@ -940,6 +940,8 @@ fn self_contact_resolves_the_bending_capsule_and_does_not_depend_on_threads() {
         assert!(summary["fold_ms"][key].as_f64().expect(key) >= 0.0, "{key}");
     }
     assert!(summary["self_contact_ms"].as_f64().expect("ms") > 0.0);
+    // The default sweeps: exactly 2 in a frame with a fold (no `max_passes`).
+    assert_eq!(summary["sweeps_max"].as_u64(), Some(2));
     for d in [&a, &b, &plain, &no_self] {
         let _ = std::fs::remove_dir_all(d);
     }

@@ -326,6 +326,51 @@ fn lbs_folds_at_the_animations_frame_rate() {
     check("finger", &finger, 0, 0, 2.2);
 }
 
+/// Sweeps past the count while the body keeps penetrating (`with_max_passes`):
+/// `finger_long` sampled at 61 frames keeps one penetrating vertex in frame 59 after its 2
+/// sweeps (welded 3754, 0.37 h deep: on the middle-distal crease cut, a zero-depth sample
+/// pinned where it is while its neighbours move), which a third sweep resolves; in frame 58,
+/// clear after 2, the further sweeps change nothing.
+#[test]
+fn further_sweeps_resolve_what_two_leave() {
+    use contact_skin::selfcontact::pass::SUGGESTED_MAX_FOLD_PASSES;
+    let l = load("finger_long", 61);
+    let exact = self_pass(&l, &[]).with_passes(2);
+    let further = self_pass(&l, &[])
+        .with_passes(2)
+        .with_max_passes(SUGGESTED_MAX_FOLD_PASSES);
+    for f in [58, 59] {
+        let pose = l.rig.pose_at(Some(0), l.times[f]);
+        let (mut two, mut more) = (l.frame(f), l.frame(f));
+        let r2 = exact.run(&l.rig, &pose, &mut two).expect("pass runs");
+        let rm = further.run(&l.rig, &pose, &mut more).expect("pass runs");
+        let (p2, pm) = (penetration(&l, 0, &two[0]), penetration(&l, 0, &more[0]));
+        println!(
+            "frame {f}: {} sweeps leave {} penetrating, {} sweeps leave {}",
+            r2.sweeps, p2.vertices, rm.sweeps, pm.vertices
+        );
+        assert_eq!(r2.sweeps, 2);
+        assert_eq!(
+            pm.vertices, 0,
+            "frame {f}: further sweeps leave {}",
+            pm.vertices
+        );
+        if f == 59 {
+            assert!(
+                p2.vertices > 0,
+                "frame 59 is no longer a case for further sweeps"
+            );
+            assert!(rm.sweeps > 2);
+        } else {
+            assert_eq!((p2.vertices, rm.sweeps), (0, 2));
+            assert_eq!(
+                two, more,
+                "frame {f}: clear after 2 sweeps, nothing more runs"
+            );
+        }
+    }
+}
+
 /// The mouth closing, with the paper's hand-set vertical direction (Fig. 1d): the upper lip's
 /// outward direction is -Y. The jaw stops abruptly (frame 24 of 31); sampled twice as finely,
 /// the output's largest second difference must halve like the input's (a pop keeps its size).

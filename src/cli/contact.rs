@@ -123,7 +123,8 @@ impl SelfRun {
             settings.params,
             &settings.directions,
         )?
-        .with_passes(settings.passes);
+        .with_passes(settings.passes)
+        .with_max_passes(settings.max_passes);
         let pairs = pass.pairs();
         Ok(Self {
             pass,

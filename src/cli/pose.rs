@@ -155,6 +155,9 @@ struct Summary {
     /// Vertices whose displacement the turn guard scaled back so that no face turns over,
     /// summed over the folds and frames.
     vertices_guarded: usize,
+    /// The most sweeps over the folds a frame took (`[self_contact] passes`, and more up to
+    /// `max_passes` while a body still penetrates); 0 without the pass.
+    sweeps_max: usize,
     /// Median time of the self-contact pass per frame (ms), over all frames.
     self_contact_ms: Option<f64>,
     /// Median fold step times (ms) over the frames with a fold (each step summed over the
@@ -233,6 +236,7 @@ struct FrameStats {
     folds_without_direction: usize,
     folds_unbalanced: usize,
     vertices_guarded: usize,
+    sweeps: usize,
     /// `--metrics`: the frame measured, with its positions.
     measured: Option<Measured>,
 }
@@ -405,6 +409,7 @@ fn summarize(
         folds_without_direction: stats.iter().map(|s| s.folds_without_direction).sum(),
         folds_unbalanced: stats.iter().map(|s| s.folds_unbalanced).sum(),
         vertices_guarded: stats.iter().map(|s| s.vertices_guarded).sum(),
+        sweeps_max: stats.iter().map(|s| s.sweeps).max().unwrap_or(0),
         self_contact_ms: self_run.map(|_| median(self_walls)),
         fold_ms: self_run.map(|_| median_folds(&with_fold)),
         metrics: None,
@@ -617,6 +622,7 @@ fn compute_unchecked(
             folds_without_direction: 0,
             folds_unbalanced: 0,
             vertices_guarded: 0,
+            sweeps: 0,
             measured: measured(job, i, &frame, None),
         };
         return Ok((frame, stats, None));
@@ -642,6 +648,7 @@ fn compute_unchecked(
         folds_without_direction: so.map_or(0, |s| s.no_direction),
         folds_unbalanced: so.map_or(0, |s| s.unbalanced),
         vertices_guarded: so.map_or(0, |s| s.guarded),
+        sweeps: so.map_or(0, |s| s.sweeps),
         measured: measured(job, i, &cf.input, Some(&cf.positions)),
     };
     Ok((cf.frame, stats, diagnostics))

@@ -792,6 +792,28 @@ pub fn residual_penetration(
     penetration_labeled(scene_positions, scene_triangles, normals, h, None)
 }
 
+/// How many vertices of the scene are penetrating by [`residual_penetration`]'s flag (the
+/// winding number at `p - 0.05 h n` at least 1.5), without their depths; `h` as there.
+pub fn penetrating_count(
+    positions: &[Point3<f64>],
+    triangles: &[[u32; 3]],
+    normals: &[Vector3<f64>],
+    h: f64,
+) -> usize {
+    let h = if h.is_finite() && h > 0.0 {
+        h
+    } else {
+        let valid: Vec<bool> = triangles
+            .iter()
+            .map(|t| corners(positions, t).is_some())
+            .collect();
+        valid_mean_edge_length(positions, triangles, &valid)
+    };
+    let (evaluated, _) = surface_vertices(positions, triangles, normals);
+    let winding = WindingNumber::new(positions, triangles);
+    inside_when_nudged(&winding, positions, &evaluated, h).len()
+}
+
 /// [`residual_penetration`] with optional body labels per vertex (bodies are never joined).
 fn penetration_labeled(
     positions: &[Point3<f64>],
