@@ -1130,7 +1130,8 @@ impl ContactConfig {
         let derived: Vec<(usize, String)> = if self.self_contact_needs_pairs() {
             let field = match self.self_contact.as_ref() {
                 Some(s) if !s.pairs.is_empty() => "self_contact.pair[0].name",
-                _ => "self_contact.extent_factor",
+                Some(s) if s.extent_factor.is_some() => "self_contact.extent_factor",
+                _ => "self_contact.direction",
             };
             derive_pairs(rig, welded, &self.self_contact_regions())
                 .map_err(|source| ConfigError::SelfContact {

@@ -10,7 +10,7 @@ use contact_skin::report::metrics;
 use contact_skin::rig;
 use contact_skin::selfcontact::fold::FoldParams;
 use contact_skin::selfcontact::pass::{SelfContactPass, SelfPassOutput};
-use contact_skin::selfcontact::{derive_pairs_reporting, PairRegions, RegionOptions};
+use contact_skin::selfcontact::{derive_pairs_reporting, BoneAxes, PairRegions, RegionOptions};
 use contact_skin::skinning::Method;
 use nalgebra::{Point3, Vector3};
 use std::path::Path;
@@ -253,7 +253,6 @@ fn derived_pairs(path: &Path) -> (rig::Rig, Precomputed, Vec<PairRegions>, Vec<S
 /// the joints' rest positions) and get none; no sample has a leaf pair folded past 90° at rest.
 #[test]
 fn only_leaf_joints_keep_a_rest_fold() {
-    use contact_skin::selfcontact::BoneAxes;
     let mut folded_articulations = 0;
     for rel in CHARACTERS {
         let Some(path) = sample(rel) else {
