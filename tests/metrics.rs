@@ -11,10 +11,10 @@ use std::time::Instant;
 use contact_skin::mesh::operators::{mean_edge_length, vertex_normals, NormalWeighting};
 use contact_skin::mesh::signed_volume;
 use contact_skin::report::metrics::{
-    closest_point_on_triangle, hausdorff, inverted_faces, non_finite, point_triangle_distance,
-    residual_penetration, residual_penetration_bodies, second_difference_ratio, solid_angle,
-    surface_distance, turned_faces, volume_error, winding_number, zone_distance, Body,
-    InvertedFaces, Penetration, TurnedFaces, WindingNumber,
+    closest_point_on_triangle, hausdorff, inverted_faces, non_finite, penetrating_count,
+    point_triangle_distance, residual_penetration, residual_penetration_bodies,
+    second_difference_ratio, solid_angle, surface_distance, turned_faces, volume_error,
+    winding_number, zone_distance, Body, InvertedFaces, Penetration, TurnedFaces, WindingNumber,
 };
 use nalgebra::{Point3, Rotation3, Vector3};
 use parry3d_f64::math::Vector as PVec;
@@ -423,6 +423,15 @@ fn overlapping_spheres_flag_exactly_the_vertices_inside_the_other_sphere() {
     let (na, nb) = (normals(&a), normals(&b));
     let bodies: [Body; 2] = [(&a.0, &a.1, &na), (&b.0, &b.1, &nb)];
     assert_eq!(residual_penetration_bodies(&bodies, h), pen);
+    // The count without depths (the self-contact pass's further sweeps) flags the same
+    // vertices, with `h` given or from the scene's own edges.
+    assert_eq!(penetrating_count(&scene.0, &scene.1, &n, h), pen.vertices);
+    let fallback = residual_penetration(&scene.0, &scene.1, &n, f64::NAN).vertices;
+    assert_eq!(
+        penetrating_count(&scene.0, &scene.1, &n, f64::NAN),
+        fallback
+    );
+    assert_eq!(penetrating_count(&a.0, &a.1, &na, h), 0, "one sphere alone");
 }
 
 #[test]
