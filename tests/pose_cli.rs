@@ -1070,6 +1070,11 @@ fn info_reports_the_joint_pairs_and_their_direction_source() {
     let sc = &v["self_contact"];
     assert_eq!(sc["enabled"], true);
     assert_eq!(sc["safeguard_angle"].as_f64(), Some(72.5));
+    // Two sweeps, and none further by default.
+    assert_eq!(
+        (sc["passes"].as_u64(), sc["max_passes"].as_u64()),
+        (Some(2), Some(2))
+    );
     let pairs = sc["pairs"].as_array().expect("pairs");
     assert_eq!(pairs.len(), 1);
     let p = &pairs[0];

@@ -107,6 +107,8 @@ struct SelfContactInfo {
     enabled: bool,
     /// Sweeps over the folds per frame.
     passes: usize,
+    /// Largest number of sweeps, those past `passes` while a body still penetrates.
+    max_passes: usize,
     /// The configuration has a `[self_contact]` table (else: the pass defaults).
     configured: bool,
     threshold: f64,
@@ -297,6 +299,7 @@ fn describe_self_contact(
         joint_extent: f.joint_extent,
         enabled: settings.enabled,
         passes: settings.passes,
+        max_passes: settings.max_passes,
         configured: cfg.self_contact.is_some(),
         threshold: settings.regions.threshold,
         grow_rings: settings.regions.grow_rings,
@@ -314,7 +317,7 @@ fn describe_self_contact(
 
 fn print_self_contact(s: &SelfContactInfo) {
     println!(
-        "  self-contact ({}{}): {} sweep(s) per frame, threshold {}, grow rings {}, stiffness {}, tau {}, safeguard {} deg, extent {}, gamma {}, omega {}",
+        "  self-contact ({}{}): {} sweep(s) per frame{}, threshold {}, grow rings {}, stiffness {}, tau {}, safeguard {} deg, extent {}, gamma {}, omega {}",
         if s.enabled { "on" } else { "off" },
         if s.configured {
             ", [self_contact] of the configuration"
@@ -322,6 +325,11 @@ fn print_self_contact(s: &SelfContactInfo) {
             ", defaults"
         },
         s.passes,
+        if s.max_passes > s.passes {
+            format!(" (up to {} while a body still penetrates)", s.max_passes)
+        } else {
+            String::new()
+        },
         s.threshold,
         s.grow_rings,
         s.stiffness,

@@ -536,6 +536,12 @@ fn print_self_contact(s: &Summary) {
                 s.vertices_guarded
             );
         }
+        if s.sweeps_max > 2 {
+            println!(
+                "self-contact: up to {} sweeps over the folds in a frame",
+                s.sweeps_max
+            );
+        }
     }
 }
 
