@@ -198,23 +198,30 @@ fn bending_capsule_fold() {
 /// 17 and 19; with `τ = 0`: CoR 30, DQS 22; before the buried band got the crease's
 /// intersection terms: CoR 57, DQS 61).
 fn volume_preserving_input(method: Method) {
-    let r = run_with("bending_capsule", 31, &[], method);
+    volume_preserving_input_on("bending_capsule", method, 6);
+}
+
+/// [`volume_preserving_input`]'s checks on `scene` with at most `max_after` penetrating
+/// vertices in a frame.
+fn volume_preserving_input_on(scene: &str, method: Method, max_after: usize) {
+    let r = run_with(scene, 31, &[], method);
     assert!(
         r.rows.iter().any(|x| x.folds > 0),
-        "{method:?}: the bend folds"
+        "{scene} {method:?}: the animation folds"
     );
     for x in r.rows.iter().filter(|x| x.folds > 0) {
         let f = x.frame;
         assert_eq!(x.nan, 0, "{method:?} frame {f}: NaN");
         assert!(x.volume_error < 1e-4, "{method:?} frame {f}: volume");
         assert!(
-            x.after <= 6,
-            "{method:?} frame {f}: penetration {} -> {}",
+            x.after <= max_after,
+            "{scene} {method:?} frame {f}: penetration {} -> {}",
             x.before,
             x.after
         );
         // What is left is shallow: measured at most 0.23 h (CoR) and 0.13 h (DQS) over the
-        // 31 frames, where the inputs are up to 7 h deep.
+        // capsule's 31 frames, where the inputs are up to 7 h deep; the finger's 0.35 h and
+        // 0.37 h.
         assert!(
             x.depth_after <= 0.5,
             "{method:?} frame {f}: residual depth {:.2} h",
@@ -279,6 +286,17 @@ fn bending_capsule_fold_cor() {
 #[test]
 fn bending_capsule_fold_dqs() {
     volume_preserving_input(Method::Dqs);
+}
+
+/// The finger with CoR and DQS input, the same checks: not at the issue's targets either. The
+/// worst frame keeps 35 penetrating vertices with both inputs (374 and 330 summed over the 31
+/// frames, at most 0.35 and 0.37 h deep; 9 and 16 with `max_passes = 4`), no face turned, the
+/// volume kept. The bound guards the state the issue note reports.
+#[test]
+fn finger_folds_with_volume_preserving_input() {
+    for method in [Method::Cor, Method::Dqs] {
+        volume_preserving_input_on("finger", method, 40);
+    }
 }
 
 /// The finger's three joints flexing past contact; and `finger_long`, the benchmark's finger
