@@ -800,18 +800,51 @@ pub fn penetrating_count(
     normals: &[Vector3<f64>],
     h: f64,
 ) -> usize {
+    let valid = valid_faces(positions, triangles);
+    flag_penetrating(positions, triangles, normals, h, &valid)
+        .flagged
+        .len()
+}
+
+/// Per face: all its corners in range and finite.
+fn valid_faces(positions: &[Point3<f64>], triangles: &[[u32; 3]]) -> Vec<bool> {
+    triangles
+        .iter()
+        .map(|t| corners(positions, t).is_some())
+        .collect()
+}
+
+/// The flag of [`residual_penetration`] and what its depths reuse.
+struct Flags {
+    winding: WindingNumber,
+    /// The penetrating vertices with their unit normals.
+    flagged: Vec<(u32, Vector3<f64>)>,
+    /// Surface vertices not evaluated (non-finite position or normal).
+    skipped: usize,
+}
+
+/// [`residual_penetration`]'s flag (`h` not finite and positive: the mean edge length of the
+/// `valid` faces).
+fn flag_penetrating(
+    positions: &[Point3<f64>],
+    triangles: &[[u32; 3]],
+    normals: &[Vector3<f64>],
+    h: f64,
+    valid: &[bool],
+) -> Flags {
     let h = if h.is_finite() && h > 0.0 {
         h
     } else {
-        let valid: Vec<bool> = triangles
-            .iter()
-            .map(|t| corners(positions, t).is_some())
-            .collect();
-        valid_mean_edge_length(positions, triangles, &valid)
+        valid_mean_edge_length(positions, triangles, valid)
     };
-    let (evaluated, _) = surface_vertices(positions, triangles, normals);
+    let (evaluated, skipped) = surface_vertices(positions, triangles, normals);
     let winding = WindingNumber::new(positions, triangles);
-    inside_when_nudged(&winding, positions, &evaluated, h).len()
+    let flagged = inside_when_nudged(&winding, positions, &evaluated, h);
+    Flags {
+        winding,
+        flagged,
+        skipped,
+    }
 }
 
 /// [`residual_penetration`] with optional body labels per vertex (bodies are never joined).
@@ -822,18 +855,12 @@ fn penetration_labeled(
     h: f64,
     labels: Option<&[u32]>,
 ) -> Penetration {
-    let valid: Vec<bool> = triangles
-        .iter()
-        .map(|t| corners(positions, t).is_some())
-        .collect();
-    let h = if h.is_finite() && h > 0.0 {
-        h
-    } else {
-        valid_mean_edge_length(positions, triangles, &valid)
-    };
-    let (evaluated, skipped) = surface_vertices(positions, triangles, normals);
-    let winding = WindingNumber::new(positions, triangles);
-    let flagged = inside_when_nudged(&winding, positions, &evaluated, h);
+    let valid = valid_faces(positions, triangles);
+    let Flags {
+        winding,
+        flagged,
+        skipped,
+    } = flag_penetrating(positions, triangles, normals, h, &valid);
     if flagged.is_empty() {
         return Penetration {
             skipped,
