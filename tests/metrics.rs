@@ -873,6 +873,71 @@ fn refitted_winding_tree_matches_a_rebuilt_one() {
     assert!(!tree.refit(&bad, &s.1), "a NaN corner is refused");
 }
 
+/// `WindingNumber::refit_changed` (only the leaves with a moved corner) gives the bits of a full
+/// `refit` at the same positions, over successive moves of parts of the surface (as the folds of
+/// one body move one joint's regions after another), once the tree was refit after its build;
+/// and it refuses a NaN corner, keeping its fit.
+#[test]
+fn partial_refit_gives_the_bits_of_a_full_refit() {
+    use contact_skin::report::metrics::WindingNumber;
+    use nalgebra::Point3;
+    let s = icosphere(4, 1.0, Point3::origin());
+    let mut partial = WindingNumber::new(&s.0, &s.1);
+    assert!(partial.refit(&s.0, &s.1));
+    // Three moves: the cap above y = 0.3 bulges, then the band |z| < 0.2 shifts, then nothing.
+    let cap: Vec<Point3<f64>> =
+        s.0.iter()
+            .map(|p| {
+                if p.y > 0.3 {
+                    Point3::new(p.x * 1.2, p.y + 0.1, p.z)
+                } else {
+                    *p
+                }
+            })
+            .collect();
+    let band: Vec<Point3<f64>> = cap
+        .iter()
+        .map(|p| {
+            if p.z.abs() < 0.2 {
+                Point3::new(p.x + 0.05, p.y, p.z * 0.9)
+            } else {
+                *p
+            }
+        })
+        .collect();
+    let queries: Vec<Point3<f64>> = (0..500)
+        .map(|i| {
+            let t = i as f64 * 0.618_033_988_75;
+            Point3::new(0.8 * t.sin(), 0.8 * (2.0 * t).cos(), 0.8 * (3.0 * t).sin())
+        })
+        .collect();
+    for moved in [&cap, &band, &band] {
+        assert!(partial.refit_changed(moved, &s.1));
+        let mut full = WindingNumber::new(&s.0, &s.1);
+        assert!(full.refit(moved, &s.1));
+        for q in &queries {
+            assert_eq!(
+                partial.query(q).to_bits(),
+                full.query(q).to_bits(),
+                "at {q}"
+            );
+        }
+    }
+    // Some queries land inside, some outside: the comparison is not between zeros.
+    let inside = queries.iter().filter(|q| partial.query(q) > 0.5).count();
+    assert!(inside > 50 && inside < 450, "{inside} inside");
+    let mut bad = band.clone();
+    bad[0].x = f64::NAN;
+    assert!(
+        !partial.refit_changed(&bad, &s.1),
+        "a NaN corner is refused"
+    );
+    let q = Point3::new(0.1, 0.2, 0.3);
+    let mut full = WindingNumber::new(&s.0, &s.1);
+    assert!(full.refit(&band, &s.1));
+    assert_eq!(partial.query(&q).to_bits(), full.query(&q).to_bits());
+}
+
 // ---------------------------------------------------------------------------------------------
 // Turned faces
 // ---------------------------------------------------------------------------------------------

@@ -494,14 +494,18 @@ impl Moments {
                     second += e * e.transpose() / 12.0;
                 }
             }
-            for (j, row) in c.iter_mut().enumerate() {
-                for (k, ck) in row.iter_mut().enumerate() {
-                    *ck += an * second[(j, k)];
+            // C is symmetric in (j, k), to the bit (as `second` is): the upper half, mirrored below.
+            for j in 0..3 {
+                for k in j..3 {
+                    c[j][k] += an * second[(j, k)];
                 }
             }
             for v in t {
                 radius = radius.max((v - center).norm());
             }
+        }
+        for (j, k) in [(1, 0), (2, 0), (2, 1)] {
+            c[j][k] = c[k][j];
         }
         Moments {
             center,
@@ -645,43 +649,99 @@ impl WindingNumber {
     /// evaluated exactly). Returns `false`, leaving the tree unchanged, when a corner is not
     /// finite or the triangles do not match (rebuild with [`WindingNumber::new`] then).
     pub fn refit(&mut self, positions: &[Point3<f64>], triangles: &[[u32; 3]]) -> bool {
-        let mut tris = Vec::with_capacity(self.bvh.tris.len());
-        for &f in &self.bvh.faces {
-            match triangles
-                .get(f as usize)
-                .and_then(|t| corners(positions, t))
-            {
-                Some(c) => tris.push(c),
-                None => return false,
-            }
-        }
+        let Some(tris) = self.corners_of(positions, triangles) else {
+            return false;
+        };
         self.bvh.tris = tris;
+        let mut fitted = vec![false; self.bvh.nodes.len()];
+        for i in (0..self.bvh.nodes.len()).rev() {
+            self.refit_node(i, &mut fitted);
+        }
+        true
+    }
+
+    /// [`WindingNumber::refit`] that recomputes only the leaves holding a face with a corner
+    /// that moved (bit for bit) and their ancestors: a node's box and moments depend on its
+    /// faces' corners only, so on a tree refit once since it was built (whose inner nodes are
+    /// merges) the result is [`WindingNumber::refit`]'s to the bit. For a mesh that a few
+    /// regions at a time move (the folds of one body, one after the other).
+    pub fn refit_changed(&mut self, positions: &[Point3<f64>], triangles: &[[u32; 3]]) -> bool {
+        let Some(tris) = self.corners_of(positions, triangles) else {
+            return false;
+        };
+        let same = |a: &[Point3<f64>; 3], b: &[Point3<f64>; 3]| {
+            a.iter()
+                .flat_map(|p| p.iter())
+                .zip(b.iter().flat_map(|p| p.iter()))
+                .all(|(x, y)| x.to_bits() == y.to_bits())
+        };
+        let moved: Vec<bool> = tris
+            .iter()
+            .zip(&self.bvh.tris)
+            .map(|(a, b)| !same(a, b))
+            .collect();
+        self.bvh.tris = tris;
+        // Per node: recomputed in this call (children come after their parent).
+        let mut fitted = vec![false; self.bvh.nodes.len()];
         for i in (0..self.bvh.nodes.len()).rev() {
             let node = self.bvh.nodes[i];
-            if node.is_leaf() {
-                let (mut lo, mut hi) = (
-                    Point3::from(Vector3::repeat(f64::INFINITY)),
-                    Point3::from(Vector3::repeat(f64::NEG_INFINITY)),
-                );
-                for t in &self.bvh.tris[node.slots()] {
-                    for p in t {
-                        lo = lo.inf(p);
-                        hi = hi.sup(p);
-                    }
-                }
-                self.bvh.nodes[i].min = lo;
-                self.bvh.nodes[i].max = hi;
-                self.moments[i] = Moments::of(&self.bvh.tris, &self.bvh.nodes[i]);
+            let stale = if node.is_leaf() {
+                moved[node.slots()].iter().any(|&m| m)
             } else {
-                let (l, r) = (i + 1, node.right as usize);
-                let (a, b) = (self.bvh.nodes[l], self.bvh.nodes[r]);
-                self.bvh.nodes[i].min = a.min.inf(&b.min);
-                self.bvh.nodes[i].max = a.max.sup(&b.max);
-                self.moments[i] =
-                    Moments::merge(&self.moments[l], &self.moments[r], &self.bvh.nodes[i]);
+                fitted[i + 1] || fitted[node.right as usize]
+            };
+            if stale {
+                self.refit_node(i, &mut fitted);
             }
         }
         true
+    }
+
+    /// The corners of every slot's face at `positions` (`None`: a corner is not finite or a
+    /// face is out of range).
+    fn corners_of(
+        &self,
+        positions: &[Point3<f64>],
+        triangles: &[[u32; 3]],
+    ) -> Option<Vec<[Point3<f64>; 3]>> {
+        self.bvh
+            .faces
+            .iter()
+            .map(|&f| {
+                triangles
+                    .get(f as usize)
+                    .and_then(|t| corners(positions, t))
+            })
+            .collect()
+    }
+
+    /// Recomputes node `i`'s box and moments from its slots' corners (a leaf) or its
+    /// children's (an inner node), and marks it in `fitted`.
+    fn refit_node(&mut self, i: usize, fitted: &mut [bool]) {
+        let node = self.bvh.nodes[i];
+        if node.is_leaf() {
+            let (mut lo, mut hi) = (
+                Point3::from(Vector3::repeat(f64::INFINITY)),
+                Point3::from(Vector3::repeat(f64::NEG_INFINITY)),
+            );
+            for t in &self.bvh.tris[node.slots()] {
+                for p in t {
+                    lo = lo.inf(p);
+                    hi = hi.sup(p);
+                }
+            }
+            self.bvh.nodes[i].min = lo;
+            self.bvh.nodes[i].max = hi;
+            self.moments[i] = Moments::of(&self.bvh.tris, &self.bvh.nodes[i]);
+        } else {
+            let (l, r) = (i + 1, node.right as usize);
+            let (a, b) = (self.bvh.nodes[l], self.bvh.nodes[r]);
+            self.bvh.nodes[i].min = a.min.inf(&b.min);
+            self.bvh.nodes[i].max = a.max.sup(&b.max);
+            self.moments[i] =
+                Moments::merge(&self.moments[l], &self.moments[r], &self.bvh.nodes[i]);
+        }
+        fitted[i] = true;
     }
 
     /// Faces left out because of an out-of-range index or a non-finite corner.

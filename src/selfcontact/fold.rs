@@ -306,8 +306,17 @@ impl FoldPre {
 
     /// The winding-number tree of the whole body at rest that a fold's inside-twice tests
     /// use (refit per fold and frame): one per body, whatever its number of folds.
+    /// Built, then refit at rest once, so that its inner nodes are merges of their children
+    /// as after any refit ([`WindingNumber::refit_changed`]'s condition).
     pub fn body_winding(rest: &[Point3<f64>], triangles: &[[u32; 3]]) -> WindingNumber {
-        WindingNumber::with_beta(rest, triangles, INSIDE_BETA)
+        let mut tree = WindingNumber::with_beta(rest, triangles, INSIDE_BETA);
+        tree.refit(rest, triangles);
+        tree
+    }
+
+    /// A copy of the body's tree at rest, for [`resolve_detected_in`].
+    pub fn body_tree(&self) -> WindingNumber {
+        WindingNumber::clone(&self.winding)
     }
 
     /// [`FoldPre::new`] with the body's tree from [`FoldPre::body_winding`] on the same rest
@@ -461,6 +470,22 @@ pub fn resolve_detected(
     geometry: &FoldInput,
     params: &FoldParams,
 ) -> Result<Option<FoldOutput>, FoldError> {
+    let mut winding = pre.body_tree();
+    resolve_detected_in(pre, detection, geometry, params, &mut winding)
+}
+
+/// [`resolve_detected`] with the body's winding-number tree `winding` kept by the caller
+/// between the folds of a frame: [`FoldPre::body_tree`], or that tree as an earlier fold of the
+/// same body in the same frame left it. Only its leaves with a moved corner are refit
+/// ([`WindingNumber::refit_changed`]), to the same bits as a copy of the rest tree refit
+/// whole: the folds of a body each move one joint's regions.
+pub fn resolve_detected_in(
+    pre: &FoldPre,
+    detection: &Detection,
+    geometry: &FoldInput,
+    params: &FoldParams,
+    winding: &mut WindingNumber,
+) -> Result<Option<FoldOutput>, FoldError> {
     let FoldInput {
         positions,
         normals,
@@ -473,10 +498,9 @@ pub fn resolve_detected(
         ..FoldTimings::default()
     };
     let mut laps = Laps::start();
-    let mut winding = WindingNumber::clone(&pre.winding);
     let inside = winding
-        .refit(positions, triangles)
-        .then(|| InsideTwice::new(std::borrow::Cow::Borrowed(&winding), positions, triangles));
+        .refit_changed(positions, triangles)
+        .then(|| InsideTwice::new(std::borrow::Cow::Borrowed(&*winding), positions, triangles));
     let tree = inside.as_ref();
     let (crease, truncated) = cut_the_crease(pre, detection, geometry, tree, params)?;
     timings.crease = laps.next();

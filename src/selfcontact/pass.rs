@@ -6,7 +6,7 @@
 
 use super::direction::{BoneAxes, DirectionSource, Meeting};
 use super::fold::{
-    resolve_detected, FoldError, FoldInput, FoldOutput, FoldParams, FoldPre, FoldTimings,
+    resolve_detected_in, FoldError, FoldInput, FoldOutput, FoldParams, FoldPre, FoldTimings,
 };
 use super::regions::{derive_pairs_reporting, RegionOptions};
 use super::turn_guard::TurnReference;
@@ -399,7 +399,7 @@ impl SelfContactPass {
         let first = skinned
             .is_some()
             .then(|| &*frame_input.get_or_insert_with(|| bodies.all().to_vec()));
-        let pos = bodies.positions(fold.body);
+        let (pos, winding) = bodies.with_winding(fold.body, || fold.pre.body_tree());
         let normals = vertex_normals(pos, tris, NormalWeighting::Area);
         let normal = |v: usize| skinned.as_ref().map_or_else(Vector3::zeros, |s| s.at(v));
         let input = FoldInput {
@@ -412,7 +412,7 @@ impl SelfContactPass {
                 normal: &normal,
             }),
         };
-        let resolved = resolve_detected(&fold.pre, &detection, &input, &self.params);
+        let resolved = resolve_detected_in(&fold.pre, &detection, &input, &self.params, winding);
         let Some(o) = resolved.map_err(fail)? else {
             return Ok(false);
         };
@@ -444,15 +444,36 @@ struct Frame<'f, 'p> {
 /// tree refit at them: one refit per body shared by the detections of its folds until a fold
 /// moves it. The positions change only through [`PosedBodies::replace`], which drops the
 /// body's tree, so a tree is never queried at positions it was not refit at.
+///
+/// Also each body's winding-number tree for the folds' inside-twice tests, copied from the
+/// rest tree at the body's first fold of the frame and refit by every fold where it moved
+/// ([`resolve_detected_in`]).
 struct PosedBodies<'p> {
     positions: &'p mut [Vec<Point3<f64>>],
     trees: Vec<Option<TriangleBvh>>,
+    windings: Vec<Option<WindingNumber>>,
 }
 
 impl<'p> PosedBodies<'p> {
     fn new(positions: &'p mut [Vec<Point3<f64>>]) -> Self {
         let trees = vec![None; positions.len()];
-        Self { positions, trees }
+        let windings = vec![None; positions.len()];
+        Self {
+            positions,
+            trees,
+            windings,
+        }
+    }
+
+    /// Positions of `body` and its winding-number tree (`rest_tree` the first time in the
+    /// frame).
+    fn with_winding(
+        &mut self,
+        body: usize,
+        rest_tree: impl FnOnce() -> WindingNumber,
+    ) -> (&[Point3<f64>], &mut WindingNumber) {
+        let tree = self.windings[body].get_or_insert_with(rest_tree);
+        (&self.positions[body], tree)
     }
 
     /// Every body's positions.
