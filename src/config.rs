@@ -36,6 +36,7 @@
 //! name = "lips/head-jaw"          # a derived joint pair (`contact-skin info`)
 //! direction = [0.0, -1.0, 0.0]    # W1's (parent side's) outward direction at the fold,
 //!                                 # or "skeleton", or "motion" (relative motion of the parts)
+//! gamma = 0.5                     # this pair's τ, γ, ω (each optional; default the section's)
 //! ```
 //!
 //! [`ContactConfig::load`] parses and checks every number (no rig needed);
@@ -488,15 +489,42 @@ pub struct SelfContactSpec {
     pub pairs: Vec<SelfPairSpec>,
 }
 
-/// One `[[self_contact.pair]]` table.
+/// One `[[self_contact.pair]]` table: what this pair does differently from the section.
 #[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SelfPairSpec {
     /// The pair's name as derived (`body/parent-child`, listed by `contact-skin info`).
     pub name: String,
     /// The mapping direction `d̂_12`: W1's (the parent side's) outward direction at the fold,
-    /// or where it comes from.
-    pub direction: SelfDirection,
+    /// or where it comes from (default: the section's `direction`).
+    pub direction: Option<SelfDirection>,
+    /// `τ` of Eq. 4 for this pair.
+    pub tau: Option<f64>,
+    /// `γ` for this pair (the bulge: 0 none, 1 exact volume).
+    pub gamma: Option<f64>,
+    /// `ω` of this pair's procedural bulge map.
+    pub omega: Option<f64>,
+}
+
+impl SelfPairSpec {
+    /// The section's fold parameters `section` with this pair's `τ`, `γ`, `ω`; `None` when it
+    /// sets none of them.
+    pub fn params(&self, section: &FoldParams) -> Option<FoldParams> {
+        if self.tau.is_none() && self.gamma.is_none() && self.omega.is_none() {
+            return None;
+        }
+        let mut p = *section;
+        if let Some(t) = self.tau {
+            p.tau = t;
+        }
+        if let Some(g) = self.gamma {
+            p.deform.gamma = g;
+        }
+        if let Some(w) = self.omega {
+            p.deform.omega = w;
+        }
+        Some(p)
+    }
 }
 
 /// The self-contact pass settings resolved from a configuration: the inputs of
@@ -512,6 +540,9 @@ pub struct SelfContactSettings {
     /// Where each pair's direction comes from, by pair name (fixed directions normalized);
     /// pairs not listed use the skeleton's.
     pub directions: Vec<(String, DirectionSource)>,
+    /// The fold parameters of the pairs that set their own `τ`, `γ` or `ω`, by pair name
+    /// (the others use `params`).
+    pub pair_params: Vec<(String, FoldParams)>,
     /// Sweeps over the folds per frame.
     pub passes: usize,
     /// Largest number of sweeps per frame (at least `passes`).
@@ -777,11 +808,27 @@ impl ContactConfig {
                     first: format!("{at}.pair[{first}]"),
                 });
             }
-            if let DirectionSource::Fixed(d) = p.direction.0 {
+            if p.direction.is_none() && p.params(&FoldParams::default()).is_none() {
+                return Err(self.invalid(
+                    field,
+                    format!(
+                        "sets nothing for '{}' (give direction, tau, gamma or omega)",
+                        p.name
+                    ),
+                ));
+            }
+            if let Some(SelfDirection(DirectionSource::Fixed(d))) = p.direction {
                 if unit(&[d.x, d.y, d.z]).is_none() {
                     return Err(self.invalid(format!("{field}.direction"), "is zero or not finite"));
                 }
             }
+            let own = ParamSpec {
+                tau: p.tau,
+                gamma: p.gamma,
+                omega: p.omega,
+                ..ParamSpec::default()
+            };
+            self.check_params(&own, &field)?;
         }
         if matches!(sc.direction, Some(SelfDirection(DirectionSource::Fixed(_)))) {
             return Err(self.invalid(
@@ -1211,6 +1258,7 @@ impl ContactConfig {
             .unwrap_or(DEFAULT_FOLD_PASSES.min(spec.max_passes.unwrap_or(usize::MAX)));
         let max_passes = spec.max_passes.unwrap_or(passes);
         let mut directions = Vec::with_capacity(derived.len());
+        let mut pair_params = Vec::new();
         for (j, p) in spec.pairs.iter().enumerate() {
             let at = format!("self_contact.pair[{j}]");
             if !derived.iter().any(|(_, n)| *n == p.name) {
@@ -1221,7 +1269,13 @@ impl ContactConfig {
                     available: list_pairs(derived),
                 });
             }
-            let source = match p.direction.0 {
+            if let Some(own) = p.params(&params) {
+                pair_params.push((p.name.clone(), own));
+            }
+            let Some(SelfDirection(source)) = p.direction else {
+                continue;
+            };
+            let source = match source {
                 DirectionSource::Fixed(d) => {
                     let d = unit(&[d.x, d.y, d.z]).ok_or_else(|| {
                         self.invalid(format!("{at}.direction"), "is zero or not finite")
@@ -1245,6 +1299,7 @@ impl ContactConfig {
             regions: self.self_contact_regions(),
             params,
             directions,
+            pair_params,
             passes,
             max_passes,
         })

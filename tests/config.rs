@@ -697,7 +697,12 @@ fn the_self_contact_table_parses_and_resolves() {
         spec.pairs,
         vec![SelfPairSpec {
             name: "lips/head-jaw".into(),
-            direction: SelfDirection(DirectionSource::Fixed(Vector3::new(0.0, -2.0, 0.0))),
+            direction: Some(SelfDirection(DirectionSource::Fixed(Vector3::new(
+                0.0, -2.0, 0.0
+            )))),
+            tau: None,
+            gamma: None,
+            omega: None,
         }]
     );
     assert!(cfg.self_contact_enabled());
@@ -726,6 +731,7 @@ fn the_self_contact_table_parses_and_resolves() {
             "lips/head-jaw".into(),
             DirectionSource::Fixed(-Vector3::y()),
         )],
+        pair_params: Vec::new(),
         passes: 1,
         max_passes: 1,
     };
@@ -812,6 +818,7 @@ fn without_a_self_contact_table_the_pass_defaults_apply() {
         regions: RegionOptions::default(),
         params: FoldParams::default(),
         directions: Vec::new(),
+        pair_params: Vec::new(),
         passes: DEFAULT_FOLD_PASSES,
         max_passes: DEFAULT_FOLD_PASSES,
     };
@@ -925,6 +932,10 @@ fn bad_self_contact_values_are_typed_errors_naming_the_field() {
         ),
     ];
     let with_pair = [
+        ("gamma = inf\n", "self_contact.pair[0].gamma"),
+        ("gamma = nan\n", "self_contact.pair[0].gamma"),
+        ("omega = -0.5\n", "self_contact.pair[0].omega"),
+        ("tau = inf\n", "self_contact.pair[0].tau"),
         ("direction = [0, 0, 0]\n", "self_contact.pair[0].direction"),
         (
             "direction = [0, nan, 1]\n",
@@ -968,8 +979,12 @@ fn bad_self_contact_values_are_typed_errors_naming_the_field() {
             "self_contact.pair[0].direction",
         ),
         (
-            "[[self_contact.pair]]\nname = \"lips/head-jaw\"\ndirection = [0, 1, 0]\ntau = 1\n",
-            "self_contact.pair[0].tau",
+            "[[self_contact.pair]]\nname = \"lips/head-jaw\"\ndirection = [0, 1, 0]\nstiffness = 1\n",
+            "self_contact.pair[0].stiffness",
+        ),
+        (
+            "[[self_contact.pair]]\nname = \"lips/head-jaw\"\ngamma = \"none\"\n",
+            "self_contact.pair[0].gamma",
         ),
     ];
     for (text, field) in parse {
@@ -977,10 +992,14 @@ fn bad_self_contact_values_are_typed_errors_naming_the_field() {
         assert!(matches!(e, ConfigError::Parse { .. }), "{text}: {e:?}");
         check_names(&e, &dir, field);
     }
+    // A pair that sets nothing is an error (a forgotten key), naming the pair.
     let e = write_config(&dir, "[[self_contact.pair]]\nname = \"lips/head-jaw\"\n")
-        .expect_err("direction is required");
-    assert!(matches!(e, ConfigError::Parse { .. }), "{e:?}");
-    assert!(e.to_string().contains("direction"), "{e}");
+        .expect_err("a pair that sets nothing");
+    assert!(matches!(e, ConfigError::Invalid { .. }), "{e:?}");
+    check_names(&e, &dir, "self_contact.pair[0]");
+    for key in ["direction", "tau", "gamma", "omega"] {
+        assert!(e.to_string().contains(key), "{e}");
+    }
     // The same pair twice.
     let text = format!("{pair}direction = [0, 1, 0]\n{pair}direction = [0, -1, 0]\n");
     let e = write_config(&dir, &text).expect_err("duplicate");
@@ -992,6 +1011,55 @@ fn bad_self_contact_values_are_typed_errors_naming_the_field() {
         other => panic!("{other:?}"),
     }
     check_names(&e, &dir, "self_contact.pair[1].name");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A pair's own `τ`, `γ`, `ω` (without a direction): the section's parameters with those
+/// replaced, for that pair only; its direction stays the section's mode.
+#[test]
+fn a_pair_sets_its_own_bulge_and_threshold() {
+    let dir = mouth_dir("self-pair-params");
+    let cfg = write_config(
+        &dir,
+        "[self_contact]\ndirection = \"motion\"\ngamma = 0.8\njoint_extent = 2.0\n\
+         [[self_contact.pair]]\nname = \"lips/head-jaw\"\ngamma = 0.0\ntau = 0.5\n",
+    )
+    .expect("parses");
+    let (rig, _) = load_mouth(&dir);
+    let derived = [
+        (0, "lips/head-jaw".to_string()),
+        (0, "lips/other-pair".to_string()),
+    ];
+    let s = cfg
+        .resolve_self_contact_with(&rig, &derived)
+        .expect("resolves");
+    assert_eq!(s.params.deform.gamma, 0.8);
+    let mut expected = s.params;
+    expected.deform.gamma = 0.0;
+    expected.tau = 0.5;
+    assert_eq!(s.pair_params, vec![("lips/head-jaw".to_string(), expected)]);
+    assert_eq!(
+        s.pair_params[0].1.joint_extent,
+        Some(2.0),
+        "the section's extent"
+    );
+    assert_eq!(
+        s.directions,
+        vec![
+            ("lips/head-jaw".to_string(), DirectionSource::Motion),
+            ("lips/other-pair".to_string(), DirectionSource::Motion),
+        ]
+    );
+    // A direction alone gives no parameters of its own.
+    let cfg = write_config(
+        &dir,
+        "[[self_contact.pair]]\nname = \"lips/head-jaw\"\ndirection = [0, 1, 0]\n",
+    )
+    .expect("parses");
+    let s = cfg
+        .resolve_self_contact_with(&rig, &derived)
+        .expect("resolves");
+    assert!(s.pair_params.is_empty());
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -102,7 +102,11 @@ fn prepare(path: &Path, params: FoldParams) -> Prepared {
 
 /// Runs the self-contact pass with `params` on the character `rel` at `path` (LBS input).
 fn run_sample(rel: &str, path: &Path, params: FoldParams) -> Summary {
-    let prepared = prepare(path, params);
+    run_prepared(rel, prepare(path, params))
+}
+
+/// [`run_sample`] with the pass already prepared.
+fn run_prepared(rel: &str, prepared: Prepared) -> Summary {
     let Prepared {
         rig,
         pre,
@@ -405,6 +409,46 @@ fn cesium_man_with_the_object_pass_extent_floor_stays_bounded() {
         s.largest
     );
     assert!(s.volume < 1e-4, "volume error {:.1e}", s.volume);
+}
+
+/// CesiumMan's residual is mostly the shoulders' bulge: the two shoulder folds (`node12` to
+/// each upper arm) pushed against the torso's side give back the lost volume round the
+/// armpit, and part of the upper arm swells into the lower torso, which no joint pair covers.
+/// With `γ = 0` for those two pairs only (`[[self_contact.pair]] gamma = 0`), 58 -> 18
+/// penetrating vertices over the 21 frames (measured; `γ = 0.5`: 31, `0.25`: 23), the body
+/// losing up to 4.9 % of its volume instead of none.
+#[test]
+fn cesium_man_shoulders_without_bulge_leave_a_third() {
+    let rel = "CesiumMan/CesiumMan.glb";
+    let Some(path) = sample(rel) else {
+        return;
+    };
+    let default = run_sample(rel, &path, FoldParams::default());
+    let mut prepared = prepare(&path, FoldParams::default());
+    let mut flat = FoldParams::default();
+    flat.deform.gamma = 0.0;
+    let shoulders: Vec<(String, FoldParams)> =
+        ["Cesium_Man/node12-node13", "Cesium_Man/node12-node16"]
+            .iter()
+            .map(|n| (n.to_string(), flat))
+            .collect();
+    prepared.pass = prepared
+        .pass
+        .with_pair_params(&shoulders)
+        .expect("the shoulders are derived pairs");
+    let s = run_prepared(rel, prepared);
+    assert!(
+        3 * s.after <= default.after,
+        "shoulders without bulge: {} penetrating, with: {}",
+        s.after,
+        default.after
+    );
+    assert!(
+        s.volume > 1e-3,
+        "the shoulders' lost volume: {:.1e}",
+        s.volume
+    );
+    assert!(default.volume < 1e-4, "{:.1e}", default.volume);
 }
 
 /// The pose of Khronos's WebXR left hand with `fingers` curled toward the palm by `angles`

@@ -124,7 +124,8 @@ impl SelfRun {
             &settings.directions,
         )?
         .with_passes(settings.passes)
-        .with_max_passes(settings.max_passes);
+        .with_max_passes(settings.max_passes)
+        .with_pair_params(&settings.pair_params)?;
         let pairs = pass.pairs();
         Ok(Self {
             pass,

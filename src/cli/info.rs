@@ -98,6 +98,12 @@ struct SelfPairInfo {
     joint_size: f64,
     /// `φ̄` of this pair in scene units.
     extent: f64,
+    /// This pair's `τ`, `γ` and `ω`: its `[[self_contact.pair]]` values, else the section's.
+    tau: f64,
+    gamma: f64,
+    omega: f64,
+    /// Whether `[[self_contact.pair]]` sets any of `τ`, `γ`, `ω` for this pair.
+    own_params: bool,
 }
 
 /// The self-contact pass as it would run: its parameters, resolved, and the joint pairs.
@@ -273,7 +279,17 @@ fn describe_self_contact(
                 .iter()
                 .find(|(n, _)| *n == p.name)
                 .map_or(DirectionSource::Skeleton, |(_, d)| *d);
+            let own = settings
+                .pair_params
+                .iter()
+                .find(|(n, _)| *n == p.name)
+                .map(|(_, q)| q);
+            let q = own.unwrap_or(f);
             SelfPairInfo {
+                tau: q.tau,
+                gamma: q.deform.gamma,
+                omega: q.deform.omega,
+                own_params: own.is_some(),
                 joint_size,
                 extent: f.joint_extent.map_or(f.deform.extent, |k| k * joint_size),
                 body: p.body,
@@ -367,8 +383,16 @@ fn print_self_contact(s: &SelfContactInfo) {
                 None => "direction from the skeleton".into(),
             },
         };
+        let own = if p.own_params {
+            format!(
+                ", tau {}, gamma {}, omega {} (configured)",
+                p.tau, p.gamma, p.omega
+            )
+        } else {
+            String::new()
+        };
         println!(
-            "    pair '{}' (body {} '{}', joints '{}' -> '{}'): shared region {} vertices, joint size {:.6}, extent {:.6}, {direction}",
+            "    pair '{}' (body {} '{}', joints '{}' -> '{}'): shared region {} vertices, joint size {:.6}, extent {:.6}, {direction}{own}",
             p.name, p.body, p.body_name, p.parent, p.child, p.shared, p.joint_size, p.extent
         );
         println!("      {}", p.reason);

@@ -33,6 +33,8 @@ struct Fold {
     sets: FaceSets,
     axes: BoneAxes,
     direction: DirectionSource,
+    /// Its own parameters ([`SelfContactPass::with_pair_params`]); `None`: the pass's.
+    params: Option<FoldParams>,
 }
 
 /// What one fold did in a frame.
@@ -228,6 +230,30 @@ impl SelfContactPass {
         self
     }
 
+    /// Gives the named joint pairs their own fold parameters (a studio's per-joint `τ`, `γ`,
+    /// `ω`: the shoulders' bulge can push an arm into the torso, which no joint pair covers;
+    /// see the README); the other pairs keep the pass's. A name that is not one of
+    /// [`SelfContactPass::pairs`] is [`SelfPassError::Mismatch`].
+    pub fn with_pair_params(
+        mut self,
+        params: &[(String, FoldParams)],
+    ) -> Result<Self, SelfPassError> {
+        for (name, p) in params {
+            let fold = self
+                .folds
+                .iter_mut()
+                .find(|f| f.pre.regions.pair.name == *name)
+                .ok_or_else(|| SelfPassError::Mismatch(format!("no joint pair named '{name}'")))?;
+            fold.params = Some(*p);
+        }
+        Ok(self)
+    }
+
+    /// The parameters `fold` runs with.
+    fn params_of<'s>(&'s self, fold: &'s Fold) -> &'s FoldParams {
+        fold.params.as_ref().unwrap_or(&self.params)
+    }
+
     /// Why parent/child pairs were left out (e.g. a shared region without a border toward
     /// one side: no partition of unity), one message each.
     pub fn skipped(&self) -> &[String] {
@@ -391,8 +417,8 @@ impl SelfContactPass {
         };
         // The turn guard's references: the frame's input (copied at the first fold) and the
         // skinning's normals.
-        let skinned = self
-            .params
+        let params = self.params_of(fold);
+        let skinned = params
             .turn_guard
             .then(|| self.skinned_normals(rig, pose, fold))
             .flatten();
@@ -412,7 +438,7 @@ impl SelfContactPass {
                 normal: &normal,
             }),
         };
-        let resolved = resolve_detected_in(&fold.pre, &detection, &input, &self.params, winding);
+        let resolved = resolve_detected_in(&fold.pre, &detection, &input, params, winding);
         let Some(o) = resolved.map_err(fail)? else {
             return Ok(false);
         };
@@ -542,6 +568,7 @@ fn with_detection(
             pre,
             axes,
             direction,
+            params: None,
         });
     }
     Ok(folds)
