@@ -507,10 +507,15 @@ pub struct SelfPairSpec {
 }
 
 impl SelfPairSpec {
+    /// Whether it sets any of `τ`, `γ`, `ω`.
+    pub fn sets_params(&self) -> bool {
+        self.tau.is_some() || self.gamma.is_some() || self.omega.is_some()
+    }
+
     /// The section's fold parameters `section` with this pair's `τ`, `γ`, `ω`; `None` when it
     /// sets none of them.
     pub fn params(&self, section: &FoldParams) -> Option<FoldParams> {
-        if self.tau.is_none() && self.gamma.is_none() && self.omega.is_none() {
+        if !self.sets_params() {
             return None;
         }
         let mut p = *section;
@@ -795,40 +800,8 @@ impl ContactConfig {
                 ));
             }
         }
-        for (j, p) in sc.pairs.iter().enumerate() {
-            let field = format!("{at}.pair[{j}]");
-            if p.name.trim().is_empty() {
-                return Err(self.invalid(format!("{field}.name"), "is empty"));
-            }
-            if let Some(first) = sc.pairs[..j].iter().position(|o| o.name == p.name) {
-                return Err(ConfigError::Duplicate {
-                    file: self.file.clone(),
-                    field: format!("{field}.name"),
-                    what: format!("joint pair '{}'", p.name),
-                    first: format!("{at}.pair[{first}]"),
-                });
-            }
-            if p.direction.is_none() && p.params(&FoldParams::default()).is_none() {
-                return Err(self.invalid(
-                    field,
-                    format!(
-                        "sets nothing for '{}' (give direction, tau, gamma or omega)",
-                        p.name
-                    ),
-                ));
-            }
-            if let Some(SelfDirection(DirectionSource::Fixed(d))) = p.direction {
-                if unit(&[d.x, d.y, d.z]).is_none() {
-                    return Err(self.invalid(format!("{field}.direction"), "is zero or not finite"));
-                }
-            }
-            let own = ParamSpec {
-                tau: p.tau,
-                gamma: p.gamma,
-                omega: p.omega,
-                ..ParamSpec::default()
-            };
-            self.check_params(&own, &field)?;
+        for j in 0..sc.pairs.len() {
+            self.check_self_pair(&sc.pairs, j)?;
         }
         if matches!(sc.direction, Some(SelfDirection(DirectionSource::Fixed(_)))) {
             return Err(self.invalid(
@@ -837,6 +810,44 @@ impl ContactConfig {
             ));
         }
         Ok(())
+    }
+
+    /// `[[self_contact.pair]]` number `j` of `pairs`: a name given once, something set, a
+    /// usable direction and numbers.
+    fn check_self_pair(&self, pairs: &[SelfPairSpec], j: usize) -> Result<(), ConfigError> {
+        let (p, field) = (&pairs[j], format!("self_contact.pair[{j}]"));
+        if p.name.trim().is_empty() {
+            return Err(self.invalid(format!("{field}.name"), "is empty"));
+        }
+        if let Some(first) = pairs[..j].iter().position(|o| o.name == p.name) {
+            return Err(ConfigError::Duplicate {
+                file: self.file.clone(),
+                field: format!("{field}.name"),
+                what: format!("joint pair '{}'", p.name),
+                first: format!("self_contact.pair[{first}]"),
+            });
+        }
+        if p.direction.is_none() && !p.sets_params() {
+            return Err(self.invalid(
+                field,
+                format!(
+                    "sets nothing for '{}' (give direction, tau, gamma or omega)",
+                    p.name
+                ),
+            ));
+        }
+        if let Some(SelfDirection(DirectionSource::Fixed(d))) = p.direction {
+            if unit(&[d.x, d.y, d.z]).is_none() {
+                return Err(self.invalid(format!("{field}.direction"), "is zero or not finite"));
+            }
+        }
+        let own = ParamSpec {
+            tau: p.tau,
+            gamma: p.gamma,
+            omega: p.omega,
+            ..ParamSpec::default()
+        };
+        self.check_params(&own, &field)
     }
 
     fn check_params(&self, p: &ParamSpec, at: &str) -> Result<(), ConfigError> {

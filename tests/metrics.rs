@@ -875,15 +875,17 @@ fn refitted_winding_tree_matches_a_rebuilt_one() {
 
 /// `WindingNumber::refit_changed` (only the leaves with a moved corner) gives the bits of a full
 /// `refit` at the same positions, over successive moves of parts of the surface (as the folds of
-/// one body move one joint's regions after another), once the tree was refit after its build;
-/// and it refuses a NaN corner, keeping its fit.
+/// one body move one joint's regions after another), from a tree as built (whose inner moments
+/// come from their faces, not from merges: its first call refits it whole) and from one refit
+/// at rest; and it refuses a NaN corner, keeping its fit.
 #[test]
 fn partial_refit_gives_the_bits_of_a_full_refit() {
     use contact_skin::report::metrics::WindingNumber;
     use nalgebra::Point3;
     let s = icosphere(4, 1.0, Point3::origin());
     let mut partial = WindingNumber::new(&s.0, &s.1);
-    assert!(partial.refit(&s.0, &s.1));
+    let mut refit_at_rest = WindingNumber::new(&s.0, &s.1);
+    assert!(refit_at_rest.refit(&s.0, &s.1));
     // Three moves: the cap above y = 0.3 bulges, then the band |z| < 0.2 shifts, then nothing.
     let cap: Vec<Point3<f64>> =
         s.0.iter()
@@ -913,14 +915,13 @@ fn partial_refit_gives_the_bits_of_a_full_refit() {
         .collect();
     for moved in [&cap, &band, &band] {
         assert!(partial.refit_changed(moved, &s.1));
+        assert!(refit_at_rest.refit_changed(moved, &s.1));
         let mut full = WindingNumber::new(&s.0, &s.1);
         assert!(full.refit(moved, &s.1));
         for q in &queries {
-            assert_eq!(
-                partial.query(q).to_bits(),
-                full.query(q).to_bits(),
-                "at {q}"
-            );
+            let bits = full.query(q).to_bits();
+            assert_eq!(partial.query(q).to_bits(), bits, "at {q}");
+            assert_eq!(refit_at_rest.query(q).to_bits(), bits, "at {q}");
         }
     }
     // Some queries land inside, some outside: the comparison is not between zeros.

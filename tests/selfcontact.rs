@@ -313,10 +313,10 @@ fn finger_folds() {
 
 /// A joint pair's own parameters (`SelfContactPass::with_pair_params`, the configuration's
 /// `[[self_contact.pair]]` `τ`, `γ`, `ω`) apply to that pair only: on the finger, `γ = 0` for
-/// the middle-distal joint (the last fold of a sweep) leaves the first sweep's other folds
-/// bit for bit as with the defaults and that fold without a bulge, so the body loses volume
-/// (kept to round-off with the defaults); every pair given the section's `γ = 0` is the pass
-/// built with `γ = 0`, to the bit; an unknown name is an error.
+/// the middle-distal joint (the last fold of a sweep; with `τ = 0`, `ω = 1`) leaves the first
+/// sweep's other folds bit for bit as with the defaults and that fold without a bulge, so the
+/// body loses volume (kept to round-off with the defaults); every pair given those parameters
+/// is the pass built with them, to the bit; an unknown name is an error.
 #[test]
 fn a_pair_takes_its_own_parameters() {
     let l = load("finger", 31);
@@ -332,9 +332,12 @@ fn a_pair_takes_its_own_parameters() {
         )
         .expect("pass")
     };
+    // γ, τ and ω of its own (a configuration's `[[self_contact.pair]]` sets these three).
     let flat = FoldParams {
+        tau: 0.0,
         deform: contact_skin::deform::DeformParams {
             gamma: 0.0,
+            omega: 1.0,
             ..FoldParams::default().deform
         },
         ..FoldParams::default()
@@ -364,7 +367,7 @@ fn a_pair_takes_its_own_parameters() {
         let (s_out, _) = go(&section);
         assert_eq!(
             a_out, s_out,
-            "frame {f}: every pair's γ = 0 is the section's"
+            "frame {f}: every pair's parameters are the section's"
         );
         // The folds before the middle-distal one in the first sweep are untouched.
         for (p, o) in p_res.folds.iter().zip(&o_res.folds) {

@@ -494,7 +494,9 @@ impl Moments {
                     second += e * e.transpose() / 12.0;
                 }
             }
-            // C is symmetric in (j, k), to the bit (as `second` is): the upper half, mirrored below.
+            // A leaf's C is symmetric in (j, k) to the bit, as `second` is (a sum of products
+            // x_j x_k): the upper half, mirrored below. (A merged node's is not: `merge` adds
+            // its terms in another order for (j, k) and (k, j).)
             for j in 0..3 {
                 for k in j..3 {
                     c[j][k] += an * second[(j, k)];
@@ -610,6 +612,9 @@ pub struct WindingNumber {
     moments: Vec<Moments>,
     beta: f64,
     skipped: usize,
+    /// Whether every inner node's moments are its children's merged (after any refit; a
+    /// built tree computes them from its faces): [`WindingNumber::refit_changed`]'s condition.
+    merged: bool,
 }
 
 impl WindingNumber {
@@ -639,6 +644,7 @@ impl WindingNumber {
             moments,
             beta,
             skipped,
+            merged: false,
         }
     }
 
@@ -657,15 +663,20 @@ impl WindingNumber {
         for i in (0..self.bvh.nodes.len()).rev() {
             self.refit_node(i, &mut fitted);
         }
+        self.merged = true;
         true
     }
 
     /// [`WindingNumber::refit`] that recomputes only the leaves holding a face with a corner
     /// that moved (bit for bit) and their ancestors: a node's box and moments depend on its
-    /// faces' corners only, so on a tree refit once since it was built (whose inner nodes are
-    /// merges) the result is [`WindingNumber::refit`]'s to the bit. For a mesh that a few
+    /// faces' corners only, so the result is [`WindingNumber::refit`]'s to the bit once the
+    /// inner nodes are merges of their children (after any refit; on a tree as built, whose
+    /// inner moments come from their faces, this is a whole refit). For a mesh that a few
     /// regions at a time move (the folds of one body, one after the other).
     pub fn refit_changed(&mut self, positions: &[Point3<f64>], triangles: &[[u32; 3]]) -> bool {
+        if !self.merged {
+            return self.refit(positions, triangles);
+        }
         let Some(tris) = self.corners_of(positions, triangles) else {
             return false;
         };

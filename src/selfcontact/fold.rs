@@ -306,12 +306,8 @@ impl FoldPre {
 
     /// The winding-number tree of the whole body at rest that a fold's inside-twice tests
     /// use (refit per fold and frame): one per body, whatever its number of folds.
-    /// Built, then refit at rest once, so that its inner nodes are merges of their children
-    /// as after any refit ([`WindingNumber::refit_changed`]'s condition).
     pub fn body_winding(rest: &[Point3<f64>], triangles: &[[u32; 3]]) -> WindingNumber {
-        let mut tree = WindingNumber::with_beta(rest, triangles, INSIDE_BETA);
-        tree.refit(rest, triangles);
-        tree
+        WindingNumber::with_beta(rest, triangles, INSIDE_BETA)
     }
 
     /// A copy of the body's tree at rest, for [`resolve_detected_in`].
@@ -476,9 +472,9 @@ pub fn resolve_detected(
 
 /// [`resolve_detected`] with the body's winding-number tree `winding` kept by the caller
 /// between the folds of a frame: [`FoldPre::body_tree`], or that tree as an earlier fold of the
-/// same body in the same frame left it. Only its leaves with a moved corner are refit
-/// ([`WindingNumber::refit_changed`]), to the same bits as a copy of the rest tree refit
-/// whole: the folds of a body each move one joint's regions.
+/// same body in the same frame left it. It is refit whole at the first fold, then only at its
+/// leaves with a moved corner ([`WindingNumber::refit_changed`]), to the same bits as a copy
+/// of the rest tree refit whole: the folds of a body each move one joint's regions.
 pub fn resolve_detected_in(
     pre: &FoldPre,
     detection: &Detection,

@@ -233,18 +233,27 @@ impl SelfContactPass {
     /// Gives the named joint pairs their own fold parameters (a studio's per-joint `τ`, `γ`,
     /// `ω`: the shoulders' bulge can push an arm into the torso, which no joint pair covers;
     /// see the README); the other pairs keep the pass's. A name that is not one of
-    /// [`SelfContactPass::pairs`] is [`SelfPassError::Mismatch`].
+    /// [`SelfContactPass::pairs`] is [`SelfPassError::Mismatch`]; every fold of that name takes
+    /// the parameters (as directions do).
     pub fn with_pair_params(
         mut self,
         params: &[(String, FoldParams)],
     ) -> Result<Self, SelfPassError> {
         for (name, p) in params {
-            let fold = self
+            let mut found = false;
+            for fold in self
                 .folds
                 .iter_mut()
-                .find(|f| f.pre.regions.pair.name == *name)
-                .ok_or_else(|| SelfPassError::Mismatch(format!("no joint pair named '{name}'")))?;
-            fold.params = Some(*p);
+                .filter(|f| f.pre.regions.pair.name == *name)
+            {
+                fold.params = Some(*p);
+                found = true;
+            }
+            if !found {
+                return Err(SelfPassError::Mismatch(format!(
+                    "no joint pair named '{name}'"
+                )));
+            }
         }
         Ok(self)
     }
@@ -252,6 +261,15 @@ impl SelfContactPass {
     /// The parameters `fold` runs with.
     fn params_of<'s>(&'s self, fold: &'s Fold) -> &'s FoldParams {
         fold.params.as_ref().unwrap_or(&self.params)
+    }
+
+    /// Whether some fold runs the turn guard.
+    fn guards_any(&self) -> bool {
+        self.params.turn_guard
+            || self
+                .folds
+                .iter()
+                .any(|f| f.params.is_some_and(|p| p.turn_guard))
     }
 
     /// Why parent/child pairs were left out (e.g. a shared region without a border toward
@@ -415,8 +433,12 @@ impl SelfContactPass {
             out.no_direction += 1;
             return Ok(false);
         };
-        // The turn guard's references: the frame's input (copied at the first fold) and the
-        // skinning's normals.
+        // The turn guard's references: the frame's input (copied at the frame's first fold
+        // whenever some fold guards, so that a guarded fold after an unguarded one compares
+        // with the frame's input too) and the skinning's normals.
+        if self.guards_any() {
+            frame_input.get_or_insert_with(|| bodies.all().to_vec());
+        }
         let params = self.params_of(fold);
         let skinned = params
             .turn_guard
@@ -424,7 +446,8 @@ impl SelfContactPass {
             .flatten();
         let first = skinned
             .is_some()
-            .then(|| &*frame_input.get_or_insert_with(|| bodies.all().to_vec()));
+            .then_some(frame_input.as_deref())
+            .flatten();
         let (pos, winding) = bodies.with_winding(fold.body, || fold.pre.body_tree());
         let normals = vertex_normals(pos, tris, NormalWeighting::Area);
         let normal = |v: usize| skinned.as_ref().map_or_else(Vector3::zeros, |s| s.at(v));
