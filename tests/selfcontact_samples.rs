@@ -415,10 +415,12 @@ fn cesium_man_with_the_object_pass_extent_floor_stays_bounded() {
 /// each upper arm) pushed against the torso's side give back the lost volume round the
 /// armpit, and part of the upper arm swells into the lower torso, which no joint pair covers.
 /// With `γ = 0` for those two pairs only (`[[self_contact.pair]] gamma = 0`), 58 -> 18
-/// penetrating vertices over the 21 frames (measured; `γ = 0.5`: 31, `0.25`: 23), the body
-/// losing up to 4.9 % of its volume instead of none.
+/// penetrating vertices over the 21 frames (measured; `γ = 0.5`: 31, `0.25`: 23; for
+/// `node12-node13` alone 25, `node12-node16` alone 53), the body losing up to 4.9 % of its
+/// volume instead of none. Asserted: less than half is left (with room for round-off at the
+/// pass's ties, which moves these counts by a few).
 #[test]
-fn cesium_man_shoulders_without_bulge_leave_a_third() {
+fn cesium_man_shoulders_without_bulge_leave_less_than_half() {
     let rel = "CesiumMan/CesiumMan.glb";
     let Some(path) = sample(rel) else {
         return;
@@ -438,7 +440,7 @@ fn cesium_man_shoulders_without_bulge_leave_a_third() {
         .expect("the shoulders are derived pairs");
     let s = run_prepared(rel, prepared);
     assert!(
-        3 * s.after <= default.after,
+        2 * s.after < default.after,
         "shoulders without bulge: {} penetrating, with: {}",
         s.after,
         default.after
