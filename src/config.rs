@@ -31,6 +31,7 @@
 //! gamma = 1.0
 //! omega = 2.0
 //! turn_guard = true               # scale the displacement back where a face would turn over
+//! bulge_guard = true              # scale the bulge back where it would enter the other part
 //! direction = "skeleton"          # every pair's default: "skeleton" or "motion"
 //! [[self_contact.pair]]
 //! name = "lips/head-jaw"          # a derived joint pair (`contact-skin info`)
@@ -481,6 +482,8 @@ pub struct SelfContactSpec {
     pub omega: Option<f64>,
     /// [`FoldParams::turn_guard`] (default `true`).
     pub turn_guard: Option<bool>,
+    /// [`FoldParams::bulge_guard`] (default `true`).
+    pub bulge_guard: Option<bool>,
     /// Where the pairs without a `[[self_contact.pair]]` direction take theirs from:
     /// `"skeleton"` (default) or `"motion"`.
     pub direction: Option<SelfDirection>,
@@ -1238,6 +1241,9 @@ impl ContactConfig {
         }
         if let Some(guard) = spec.turn_guard {
             params.turn_guard = guard;
+        }
+        if let Some(guard) = spec.bulge_guard {
+            params.bulge_guard = guard;
         }
         if let Some(k) = spec.joint_extent {
             params.joint_extent = Some(k);

@@ -794,6 +794,18 @@ fn the_turn_guard_is_a_setting() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// `bulge_guard` is off by default and can be turned on.
+#[test]
+fn the_bulge_guard_is_a_setting() {
+    let dir = mouth_dir("bulge-guard");
+    let default = resolve_self(&dir, "[self_contact]\n").expect("resolves");
+    assert!(!default.params.bulge_guard);
+    let on = resolve_self(&dir, "[self_contact]\nbulge_guard = true\n").expect("resolves");
+    assert!(on.params.bulge_guard);
+    assert!(resolve_self(&dir, "[self_contact]\nbulge_guard = \"yes\"\n").is_err());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// `joint_extent` sets `φ̄` per joint (the default, 1.5); `extent` or `extent_factor` set it in
 /// scene units for every joint instead.
 #[test]

@@ -268,6 +268,8 @@ pub struct FoldDiagnostics {
     pub unbalanced: bool,
     /// Vertices whose displacement the turn guard scaled back (`FoldOutput::guarded`).
     pub guarded: usize,
+    /// Vertices whose bulge the bulge guard scaled back (`FoldOutput::bulge_guarded`).
+    pub bulge_guarded: usize,
     /// Step timings of the fold in seconds.
     pub timings_s: FoldTimings,
 }
@@ -394,6 +396,7 @@ pub fn diagnostics(rig: &Rig, pre: &Precomputed, c: &ContactFrame) -> FrameDiagn
                 bulge_steepness: o.bulge_steepness,
                 unbalanced: o.unbalanced,
                 guarded: o.guarded,
+                bulge_guarded: o.bulge_guarded,
                 timings_s: o.timings,
             }
         })

@@ -155,6 +155,9 @@ struct Summary {
     /// Vertices whose displacement the turn guard scaled back so that no face turns over,
     /// summed over the folds and frames.
     vertices_guarded: usize,
+    /// Vertices whose bulge the bulge guard scaled back so that it does not enter the other
+    /// part of the fold, summed over the folds and frames.
+    bulges_guarded: usize,
     /// The most sweeps over the folds a frame took (`[self_contact] passes`, and more up to
     /// `max_passes` while a body still penetrates); 0 without the pass.
     sweeps_max: usize,
@@ -236,6 +239,7 @@ struct FrameStats {
     folds_without_direction: usize,
     folds_unbalanced: usize,
     vertices_guarded: usize,
+    bulges_guarded: usize,
     sweeps: usize,
     /// `--metrics`: the frame measured, with its positions.
     measured: Option<Measured>,
@@ -409,6 +413,7 @@ fn summarize(
         folds_without_direction: stats.iter().map(|s| s.folds_without_direction).sum(),
         folds_unbalanced: stats.iter().map(|s| s.folds_unbalanced).sum(),
         vertices_guarded: stats.iter().map(|s| s.vertices_guarded).sum(),
+        bulges_guarded: stats.iter().map(|s| s.bulges_guarded).sum(),
         sweeps_max: stats.iter().map(|s| s.sweeps).max().unwrap_or(0),
         self_contact_ms: self_run.map(|_| median(self_walls)),
         fold_ms: self_run.map(|_| median_folds(&with_fold)),
@@ -536,6 +541,12 @@ fn print_self_contact(s: &Summary) {
                 s.vertices_guarded
             );
         }
+        if s.bulges_guarded > 0 {
+            println!(
+                "self-contact: the bulge guard scaled back {} vertex bulge(s) (summed over the folds) so that no bulge enters the other part",
+                s.bulges_guarded
+            );
+        }
         if s.sweeps_max > 2 {
             println!(
                 "self-contact: up to {} sweeps over the folds in a frame",
@@ -628,6 +639,7 @@ fn compute_unchecked(
             folds_without_direction: 0,
             folds_unbalanced: 0,
             vertices_guarded: 0,
+            bulges_guarded: 0,
             sweeps: 0,
             measured: measured(job, i, &frame, None),
         };
@@ -654,6 +666,7 @@ fn compute_unchecked(
         folds_without_direction: so.map_or(0, |s| s.no_direction),
         folds_unbalanced: so.map_or(0, |s| s.unbalanced),
         vertices_guarded: so.map_or(0, |s| s.guarded),
+        bulges_guarded: so.map_or(0, |s| s.bulge_guarded),
         sweeps: so.map_or(0, |s| s.sweeps),
         measured: measured(job, i, &cf.input, Some(&cf.positions)),
     };

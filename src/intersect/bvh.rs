@@ -195,6 +195,32 @@ impl TriangleBvh {
         self.refit_nodes();
     }
 
+    /// Like [`TriangleBvh::refit`], each face's box covering the face at both `from` and `to`
+    /// (and so, box and face being convex, its whole straight path between them).
+    pub fn refit_swept(
+        &mut self,
+        from: &[Point3<f64>],
+        to: &[Point3<f64>],
+        triangles: &[[u32; 3]],
+    ) {
+        let live = self.live.as_deref();
+        self.faces
+            .par_iter()
+            .zip(self.face_boxes.par_iter_mut())
+            .enumerate()
+            .with_min_len(1024)
+            .for_each(|(slot, (&f, b))| {
+                *b = if live.is_none_or(|l| l[slot]) {
+                    let t = &triangles[f as usize];
+                    Aabb::of_triangle(t.map(|i| &from[i as usize]))
+                        .union(&Aabb::of_triangle(t.map(|i| &to[i as usize])))
+                } else {
+                    Aabb::EMPTY
+                }
+            });
+        self.refit_nodes();
+    }
+
     /// Node boxes from the face boxes, bottom up.
     fn refit_nodes(&mut self) {
         for i in (0..self.nodes.len()).rev() {

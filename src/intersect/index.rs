@@ -253,6 +253,20 @@ impl MeshIndex {
         })
     }
 
+    /// The BVH with each face's box covering its straight path from `from` to `to`
+    /// ([`TriangleBvh::refit_swept`]).
+    pub(crate) fn swept_tree(
+        &self,
+        from: &[Point3<f64>],
+        to: &[Point3<f64>],
+    ) -> Result<TriangleBvh, IntersectError> {
+        self.check_frame(from)?;
+        self.check_frame(to)?;
+        let mut bvh = self.bvh.clone();
+        bvh.refit_swept(from, to, &self.triangles);
+        Ok(bvh)
+    }
+
     /// One position per vertex of the mesh, all finite.
     fn check_frame(&self, positions: &[Point3<f64>]) -> Result<(), IntersectError> {
         self.check_count(positions)?;

@@ -26,6 +26,7 @@
 //!   back where it would turn faces over;
 //! - [`pass`]: every joint pair of a rig, frame by frame, in sweeps.
 
+pub mod bulge_guard;
 pub mod crease;
 pub mod direction;
 pub mod fold;

@@ -67,6 +67,9 @@ pub struct SelfPassOutput {
     /// Vertices whose displacement the turn guard scaled back, summed over the folds
     /// ([`crate::selfcontact::fold::FoldOutput::guarded`]).
     pub guarded: usize,
+    /// Vertices whose bulge the bulge guard scaled back, summed over the folds
+    /// ([`crate::selfcontact::fold::FoldOutput::bulge_guarded`]).
+    pub bulge_guarded: usize,
     /// Sweeps over the folds run this frame (see [`SelfContactPass::with_max_passes`]).
     pub sweeps: usize,
 }
@@ -468,6 +471,7 @@ impl SelfContactPass {
         out.unbalanced += usize::from(o.unbalanced);
         if !o.unbalanced {
             out.guarded += o.guarded;
+            out.bulge_guarded += o.bulge_guarded;
         }
         out.timings += o.timings;
         let moved = !o.unbalanced;
