@@ -794,14 +794,14 @@ fn the_turn_guard_is_a_setting() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// `bulge_guard` is off by default and can be turned on.
+/// `bulge_guard` is on by default and can be turned off.
 #[test]
 fn the_bulge_guard_is_a_setting() {
     let dir = mouth_dir("bulge-guard");
     let default = resolve_self(&dir, "[self_contact]\n").expect("resolves");
-    assert!(!default.params.bulge_guard);
-    let on = resolve_self(&dir, "[self_contact]\nbulge_guard = true\n").expect("resolves");
-    assert!(on.params.bulge_guard);
+    assert!(default.params.bulge_guard);
+    let off = resolve_self(&dir, "[self_contact]\nbulge_guard = false\n").expect("resolves");
+    assert!(!off.params.bulge_guard);
     assert!(resolve_self(&dir, "[self_contact]\nbulge_guard = \"yes\"\n").is_err());
     let _ = std::fs::remove_dir_all(&dir);
 }

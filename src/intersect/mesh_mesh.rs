@@ -182,18 +182,6 @@ pub fn intersect_parts(
     Intersections::self_contact(&p1.pose(positions)?, &p2.pose(positions)?)
 }
 
-/// Whether two faces of one mesh cross (`tri` their vertex ids, which break ties as in
-/// [`Intersections::self_contact`]; `pts` their corners): the exact test of one pair, `false`
-/// when they share a vertex.
-pub fn faces_cross(tri: [[u32; 3]; 2], pts: [[&Point3<f64>; 3]; 2]) -> bool {
-    let pair = Pair {
-        faces: [0, 0],
-        tri,
-        pts,
-    };
-    !pair.shares_vertex() && pair.segment(&Counters::default()).is_some()
-}
-
 #[derive(Default)]
 struct Counters {
     candidates: AtomicUsize,

@@ -54,8 +54,8 @@ pub use curves::Curve;
 pub(crate) use index::check_positions;
 pub use index::{MeshIndex, PosedMesh};
 pub use mesh_mesh::{
-    faces_cross, intersect_meshes, intersect_parts, EdgeHit, IntersectionSegment,
-    IntersectionStats, Intersections, Side,
+    intersect_meshes, intersect_parts, EdgeHit, IntersectionSegment, IntersectionStats,
+    Intersections, Side,
 };
 pub use rays::{farthest_hit, farthest_hit_among, farthest_hits, farthest_hits_among, Ray, RayHit};
 pub use regions::{

@@ -18,30 +18,29 @@
 //! first `t` at which a corner of one passes through the other face, or an edge through an
 //! edge. Each corner with a bulge keeps, as the scale of its bulge, the smallest of its pairs'
 //! first meetings, plus the fraction of the step that carries it [`TOLERANCE`] edge lengths
-//! further. Pairs that already cross without the bulge are the contact's business and left
-//! alone, as are pairs whose bulge is shorter than the tolerance. The scale is 1 where the
-//! first meeting reaches the output, and follows it continuously from there.
+//! further. The scale is 1 where the first meeting reaches the output, and follows it
+//! continuously from there.
 //!
-//! Not the default: near the crease the faces of both parts' contact zones lie on the one
-//! contact surface, touching, and whether a bulged face next to them starts crossing the
-//! other part at once is decided by round-off there. The guard's output then depends on the
-//! order of operations: the fold with its regions exchanged differs by up to 1e-4 h (6.7e-15 h
-//! without the guard) and its mirror image through the capsule's plane of symmetry by 5.6e-2 h
-//! (1.6e-4 h), measured on the LBS capsule.
+//! Only pairs that the bulge brings together are followed: faces closer than the tolerance
+//! without the bulge (crossing, or touching) are the contact's business and left alone, as
+//! are pairs whose bulge is shorter than the tolerance. Near the crease the faces of both
+//! parts' contact zones lie on the one contact surface, touching; whether they cross there is
+//! round-off's, and a first version that followed them (from a crossing test at a tiny `t`)
+//! decided it differently for the fold's mirror image (5.6e-2 h apart on the capsule, against
+//! 1.6e-4 h without the guard) and for its regions exchanged (1e-4 h, against 1e-14 h). With
+//! the separation test both agree as without the guard.
 
-use crate::intersect::{faces_cross, IntersectError, MeshIndex};
+use crate::intersect::{IntersectError, MeshIndex};
 use nalgebra::{Matrix3, Point3, Vector3};
 
 /// Bisection steps for an event's time (to `2^-50` of the bulge step).
 const BISECTION_STEPS: usize = 50;
 /// How far a bulge may carry a face into the other part, in the fold's edge lengths
 /// ([`BulgeStep::tolerance`]): a bulge this shallow is no penetration by the metric's test
-/// (`MEASURING.md`: the winding number `0.05 h` inside a vertex), and faces whose bulge is
-/// shorter are not tested at all (near the crease, where both parts' faces touch).
+/// (`MEASURING.md`: the winding number `0.05 h` inside a vertex). Also the separation below
+/// which two faces without their bulge are in contact already, and the shortest bulge the
+/// guard looks at.
 pub const TOLERANCE: f64 = 0.01;
-/// The bulge fraction from which a pair's path is followed ([`onset`]): past the ties of
-/// faces that touch without their bulge, short of any bulge that matters.
-const START: f64 = 1.0 / 1024.0 / 1024.0;
 
 /// The bulge of a fold as the guard sees it.
 pub struct BulgeStep<'a> {
@@ -75,7 +74,7 @@ pub fn bulge_scales(
         let mut tri = [fa, fb].map(|f| bulge.triangles[f as usize]);
         tri.sort_unstable();
         let reach = largest_step(bulge, &tri);
-        if reach <= bulge.tolerance || tri[0].iter().any(|v| tri[1].contains(v)) {
+        if reach <= bulge.tolerance || separation(bulge, &tri) <= bulge.tolerance {
             return None;
         }
         // Past the meeting point by the tolerance (continuous: 1 as the meeting nears the
@@ -97,6 +96,23 @@ pub fn bulge_scales(
     Ok(Some(scale))
 }
 
+/// The distance between the faces `tri` without their bulge (0 where they touch or cross,
+/// and for faces sharing a corner).
+fn separation(bulge: &BulgeStep, tri: &[[u32; 3]; 2]) -> f64 {
+    use parry3d_f64::math::{Pose, Vector};
+    use parry3d_f64::shape::Triangle;
+    let shape = |f: &[u32; 3]| {
+        let p = f.map(|v| {
+            let x = bulge.base[v as usize];
+            Vector::new(x.x, x.y, x.z)
+        });
+        Triangle::new(p[0], p[1], p[2])
+    };
+    let (a, b) = (shape(&tri[0]), shape(&tri[1]));
+    parry3d_f64::query::distance(&Pose::IDENTITY, &a, &Pose::IDENTITY, &b)
+        .map_or(0.0, |d| d.distance)
+}
+
 /// The longest bulge step of the faces `tri`'s corners.
 fn largest_step(bulge: &BulgeStep, tri: &[[u32; 3]; 2]) -> f64 {
     tri.iter()
@@ -105,23 +121,17 @@ fn largest_step(bulge: &BulgeStep, tri: &[[u32; 3]; 2]) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// The first bulge fraction `t ∈ (START, 1]` at which the faces `tri` (in a fixed order
-/// whatever the parts' order), their corners at `x + t s`, meet: a corner of one passing
+/// The first bulge fraction `t ∈ (0, 1]` at which the faces `tri` (apart at 0; in a fixed
+/// order whatever the parts' order), their corners at `x + t s`, meet: a corner of one passing
 /// through the other face, or an edge of one through an edge of the other (continuous
 /// collision detection: the times at which the four points are coplanar, roots of a cubic,
-/// kept where the points meet). `None` when they never meet on the way, or already cross at
-/// `START` (then the crossing is the contact's, not the bulge's; `START`, not 0, because faces
-/// of both parts left touching on the contact surface are a symbolic tie at 0).
+/// kept where the points meet). `None` when they never meet on the way.
 fn onset(bulge: &BulgeStep, tri: [[u32; 3]; 2]) -> Option<f64> {
     let path = |v: u32| Path {
         from: bulge.base[v as usize],
         step: bulge.step[v as usize],
     };
     let [a, b] = tri.map(|f| f.map(path));
-    let at_start = [a, b].map(|f| f.map(|p| p.at(START)));
-    if faces_cross(tri, at_start.each_ref().map(|f| f.each_ref())) {
-        return None;
-    }
     let mut first: Option<f64> = None;
     let mut keep = |t: Option<f64>| {
         if let Some(t) = t {
@@ -167,12 +177,12 @@ enum Meeting {
     EdgeEdge,
 }
 
-/// The first `t ∈ (START, 1]` at which the four moving points are coplanar with the corner
+/// The first `t ∈ (0, 1]` at which the four moving points are coplanar with the corner
 /// inside the face, or the two edges crossing.
 fn first_meeting(points: &[Path; 4], kind: Meeting) -> Option<f64> {
     let cubic = Coplanarity::of(points);
     cubic
-        .roots(START, 1.0)
+        .roots(0.0, 1.0)
         .into_iter()
         .find(|&t| meets(&points.map(|p| p.at(t)), kind))
 }
@@ -338,8 +348,8 @@ mod tests {
     }
 
     /// A bulge that stays short of the other part, or within the tolerance past it, and a
-    /// pair that crosses without the bulge (the contact's business, not the bulge's), are left
-    /// alone.
+    /// pair that crosses or touches without the bulge (the contact's business, not the
+    /// bulge's), are left alone.
     #[test]
     fn the_guard_leaves_what_the_bulge_did_not_cross() {
         assert!(scales(0.5, 0.4, 0.0).is_none(), "stays below the face");
@@ -349,5 +359,14 @@ mod tests {
             "a bulge shorter than the tolerance"
         );
         assert!(scales(1.2, 0.3, 0.0).is_none(), "crosses without the bulge");
+        // Closer than the tolerance without the bulge: in contact already, the contact's.
+        assert!(
+            scales(0.995, 1.0, 0.01).is_none(),
+            "touching without the bulge"
+        );
+        assert!(
+            scales(0.98, 1.0, 0.01).is_some(),
+            "apart by twice the tolerance"
+        );
     }
 }
