@@ -36,7 +36,8 @@ use nalgebra::{Matrix3, Point3, Vector3};
 /// Bisection steps for an event's time (to `2^-50` of the bulge step).
 const BISECTION_STEPS: usize = 50;
 /// How far a bulge may carry a face into the other part, in the fold's edge lengths
-/// ([`BulgeStep::tolerance`]): a bulge this shallow is no penetration by the metric's test
+/// ([`BulgeStep::tolerance`]; measured along the fastest corner of the pair, so two faces
+/// closing head-on may pass each other by up to twice as much): a bulge this shallow is no penetration by the metric's test
 /// (`MEASURING.md`: the winding number `0.05 h` inside a vertex). Also the separation below
 /// which two faces without their bulge are in contact already, and the shortest bulge the
 /// guard looks at.
@@ -125,7 +126,8 @@ fn largest_step(bulge: &BulgeStep, tri: &[[u32; 3]; 2]) -> f64 {
 /// order whatever the parts' order), their corners at `x + t s`, meet: a corner of one passing
 /// through the other face, or an edge of one through an edge of the other (continuous
 /// collision detection: the times at which the four points are coplanar, roots of a cubic,
-/// kept where the points meet). `None` when they never meet on the way.
+/// kept where the points meet). `None` when they never meet on the way. Two faces sliding
+/// into each other within one plane have no coplanarity event and are missed.
 fn onset(bulge: &BulgeStep, tri: [[u32; 3]; 2]) -> Option<f64> {
     let path = |v: u32| Path {
         from: bulge.base[v as usize],
@@ -273,7 +275,8 @@ impl Coplanarity {
         r
     }
 
-    /// The sign change in `(lo, hi]` of a monotone piece, if any.
+    /// The sign change in `(lo, hi]` of a monotone piece, if any (also a zero exactly at `hi`
+    /// where the cubic only touches 0: harmless, the meeting test decides).
     fn bisect(&self, mut lo: f64, mut hi: f64) -> Option<f64> {
         let (f_lo, f_hi) = (self.at(lo), self.at(hi));
         if f_lo == 0.0 || f_lo.signum() == f_hi.signum() && f_hi != 0.0 {
@@ -316,13 +319,18 @@ mod tests {
     }
 
     fn scales(apex: f64, rise: f64, tolerance: f64) -> Option<Vec<f64>> {
-        let (base, triangles, step) = scene(apex, rise);
-        let output: Vec<Point3<f64>> = base.iter().zip(&step).map(|(x, s)| x + s).collect();
-        let parts = MeshIndex::self_contact_parts(&base, &triangles, &[1, 2]).expect("parts");
+        guard(&scene(apex, rise), &[1, 2], tolerance)
+    }
+
+    /// The guard's scales for `scene`, its faces in the parts `parts`.
+    fn guard(scene: &Scene, parts: &[u8], tolerance: f64) -> Option<Vec<f64>> {
+        let (base, triangles, step) = scene;
+        let output: Vec<Point3<f64>> = base.iter().zip(step).map(|(x, s)| x + s).collect();
+        let parts = MeshIndex::self_contact_parts(base, triangles, parts).expect("parts");
         let bulge = BulgeStep {
-            triangles: &triangles,
-            base: &base,
-            step: &step,
+            triangles,
+            base,
+            step,
             output: &output,
             tolerance,
         };
@@ -345,6 +353,70 @@ mod tests {
         // A tolerance of 0.1 past the face: 0.6 of the bulge of 1.
         let s = scales(0.5, 1.0, 0.1).expect("pierces by more than 0.1");
         assert!((s[2] - 0.6).abs() < 1e-9, "apex scale {}", s[2]);
+    }
+
+    /// The same apex with the faces' ids (and parts) the other way round: the meeting is the
+    /// second face's corner passing through the first face, the other direction of the
+    /// corner-face events.
+    #[test]
+    fn the_corner_face_events_go_both_ways() {
+        let (base, _, step) = scene(0.5, 1.0);
+        let order = [3, 4, 5, 0, 1, 2];
+        let base: Vec<Point3<f64>> = order.iter().map(|&v| base[v]).collect();
+        let step: Vec<Vector3<f64>> = order.iter().map(|&v| step[v]).collect();
+        let s = guard(&(base, vec![[0, 1, 2], [3, 4, 5]], step), &[2, 1], 0.0).expect("meets");
+        assert!((s[5] - 0.5).abs() < 1e-9, "apex scale {}", s[5]);
+    }
+
+    /// Two faces whose first meeting is an edge of one through an edge of the other (no
+    /// corner passes through a face before): a flat-lying face of part 1 along `x`, a face of
+    /// part 2 above it coming down by 2 with its edge along `y` at height 1; the edges meet at
+    /// `t = 0.5`.
+    #[test]
+    fn an_edge_through_an_edge_is_a_meeting() {
+        let p = |x, y, z| Point3::new(x, y, z);
+        let base = vec![
+            p(-1.0, 0.0, 0.0),
+            p(1.0, 0.0, 0.0),
+            p(0.0, 0.5, -1.0),
+            p(0.0, -1.0, 1.0),
+            p(0.0, 1.0, 1.0),
+            p(0.2, 0.0, 2.0),
+        ];
+        let down = Vector3::new(0.0, 0.0, -2.0);
+        let step = vec![
+            Vector3::zeros(),
+            Vector3::zeros(),
+            Vector3::zeros(),
+            down,
+            down,
+            down,
+        ];
+        let scene = (base, vec![[0, 1, 2], [3, 4, 5]], step);
+        let s = guard(&scene, &[1, 2], 0.0).expect("the edges meet");
+        for (v, scale) in s.iter().enumerate().skip(3) {
+            assert!((scale - 0.5).abs() < 1e-9, "vertex {v} scale {scale}");
+        }
+    }
+
+    /// The cubic's roots in `(0, 1]` where it changes sign, with critical points inside:
+    /// `(t - 0.2)(t - 0.5)(t - 0.9)`; a double root (no crossing) gives none.
+    #[test]
+    fn the_coplanarity_cubic_finds_each_sign_change() {
+        let three = Coplanarity {
+            c: [-0.09, 0.73, -1.6, 1.0],
+        };
+        let roots = three.roots(0.0, 1.0);
+        assert_eq!(roots.len(), 3, "{roots:?}");
+        for (r, want) in roots.iter().zip([0.2, 0.5, 0.9]) {
+            assert!((r - want).abs() < 1e-12, "{roots:?}");
+        }
+        // (t - 0.3)² (t - 2): touches 0 at 0.3 without crossing, crosses at 2, past 1.
+        let touch = Coplanarity {
+            c: [-0.18, 1.29, -2.6, 1.0],
+        };
+        assert!(touch.roots(0.0, 1.0).iter().all(|r| (r - 0.3).abs() < 1e-6));
+        assert!(touch.roots(0.0, 1.0).len() <= 1);
     }
 
     /// A bulge that stays short of the other part, or within the tolerance past it, and a
