@@ -179,20 +179,7 @@ impl TriangleBvh {
 
     /// Recomputes every box for new positions of the same mesh (same triangles).
     pub fn refit(&mut self, positions: &[Point3<f64>], triangles: &[[u32; 3]]) {
-        let live = self.live.as_deref();
-        self.faces
-            .par_iter()
-            .zip(self.face_boxes.par_iter_mut())
-            .enumerate()
-            .with_min_len(1024)
-            .for_each(|(slot, (&f, b))| {
-                *b = if live.is_none_or(|l| l[slot]) {
-                    face_box(positions, &triangles[f as usize])
-                } else {
-                    Aabb::EMPTY
-                }
-            });
-        self.refit_nodes();
+        self.refit_boxes(|f| face_box(positions, &triangles[f as usize]));
     }
 
     /// Like [`TriangleBvh::refit`], each face's box covering the face at both `from` and `to`
@@ -203,6 +190,15 @@ impl TriangleBvh {
         to: &[Point3<f64>],
         triangles: &[[u32; 3]],
     ) {
+        self.refit_boxes(|f| {
+            let t = &triangles[f as usize];
+            Aabb::of_triangle(t.map(|i| &from[i as usize]))
+                .union(&Aabb::of_triangle(t.map(|i| &to[i as usize])))
+        });
+    }
+
+    /// Every live slot's box from `face_box(face id)`, then the nodes'.
+    fn refit_boxes(&mut self, face_box: impl Fn(u32) -> Aabb + Sync) {
         let live = self.live.as_deref();
         self.faces
             .par_iter()
@@ -211,9 +207,7 @@ impl TriangleBvh {
             .with_min_len(1024)
             .for_each(|(slot, (&f, b))| {
                 *b = if live.is_none_or(|l| l[slot]) {
-                    let t = &triangles[f as usize];
-                    Aabb::of_triangle(t.map(|i| &from[i as usize]))
-                        .union(&Aabb::of_triangle(t.map(|i| &to[i as usize])))
+                    face_box(f)
                 } else {
                     Aabb::EMPTY
                 }

@@ -30,6 +30,7 @@
 //! 1.6e-4 h without the guard) and for its regions exchanged (1e-4 h, against 1e-14 h). With
 //! the separation test both agree as without the guard.
 
+use crate::contact::zones::quadratic_roots;
 use crate::intersect::{IntersectError, MeshIndex};
 use nalgebra::{Matrix3, Point3, Vector3};
 
@@ -257,20 +258,7 @@ impl Coplanarity {
 
     /// Roots of the derivative `c1 + 2 c2 t + 3 c3 t²`, ascending.
     fn critical_points(&self) -> Vec<f64> {
-        let (a, b, c) = (3.0 * self.c[3], 2.0 * self.c[2], self.c[1]);
-        if a == 0.0 {
-            return if b == 0.0 { Vec::new() } else { vec![-c / b] };
-        }
-        let disc = b * b - 4.0 * a * c;
-        if disc < 0.0 {
-            return Vec::new();
-        }
-        // The stable pair of roots.
-        let q = -0.5 * (b + b.signum() * disc.sqrt());
-        let mut r = vec![q / a];
-        if q != 0.0 {
-            r.push(c / q);
-        }
+        let mut r = quadratic_roots(self.c[1], 2.0 * self.c[2], 3.0 * self.c[3]);
         r.sort_by(f64::total_cmp);
         r
     }
