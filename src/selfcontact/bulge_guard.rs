@@ -76,7 +76,10 @@ pub fn bulge_scales(
         let mut tri = [fa, fb].map(|f| bulge.triangles[f as usize]);
         tri.sort_unstable();
         let reach = largest_step(bulge, &tri);
-        if reach <= bulge.tolerance || separation(bulge, &tri) <= bulge.tolerance {
+        if reach <= bulge.tolerance || on_one_side(bulge, &tri) {
+            return None;
+        }
+        if separation(bulge, &tri) <= bulge.tolerance {
             return None;
         }
         // Past the meeting point by the tolerance (continuous: 1 as the meeting nears the
@@ -123,6 +126,29 @@ fn largest_step(bulge: &BulgeStep, tri: &[[u32; 3]; 2]) -> f64 {
         .fold(0.0, f64::max)
 }
 
+/// The corners' paths of the faces `tri`.
+fn paths(bulge: &BulgeStep, tri: &[[u32; 3]; 2]) -> [[Path; 3]; 2] {
+    let path = |v: u32| Path {
+        from: bulge.base[v as usize],
+        step: bulge.step[v as usize],
+    };
+    tri.map(|f| f.map(path))
+}
+
+/// Whether one of the faces `tri` stays strictly on one side of the other's plane all along
+/// the path (then they cannot meet): its three corners' coplanarity cubics with the other face
+/// have one sign at 0 and no sign change on the way. A cheap test before the dearer ones.
+fn on_one_side(bulge: &BulgeStep, tri: &[[u32; 3]; 2]) -> bool {
+    let [a, b] = paths(bulge, tri);
+    [(a, b), (b, a)].iter().any(|(corners, face)| {
+        let cubics = corners.map(|q| Coplanarity::of(&[face[0], face[1], face[2], q]));
+        let sign = cubics[0].at(0.0).signum();
+        cubics
+            .iter()
+            .all(|c| c.at(0.0) != 0.0 && c.at(0.0).signum() == sign && c.roots(0.0, 1.0).is_empty())
+    })
+}
+
 /// The first bulge fraction `t ∈ (0, 1]` at which the faces `tri` (apart at 0; in a fixed
 /// order whatever the parts' order), their corners at `x + t s`, meet: a corner of one passing
 /// through the other face, or an edge of one through an edge of the other (continuous
@@ -130,11 +156,7 @@ fn largest_step(bulge: &BulgeStep, tri: &[[u32; 3]; 2]) -> f64 {
 /// kept where the points meet). `None` when they never meet on the way. Two faces sliding
 /// into each other within one plane have no coplanarity event and are missed.
 fn onset(bulge: &BulgeStep, tri: [[u32; 3]; 2]) -> Option<f64> {
-    let path = |v: u32| Path {
-        from: bulge.base[v as usize],
-        step: bulge.step[v as usize],
-    };
-    let [a, b] = tri.map(|f| f.map(path));
+    let [a, b] = paths(bulge, &tri);
     let mut first: Option<f64> = None;
     let mut keep = |t: Option<f64>| {
         if let Some(t) = t {
