@@ -80,44 +80,24 @@ fn run_with(
     directions: &[(String, DirectionSource)],
     method: Method,
 ) -> Run {
-    run_params(name, frames, method, FoldParams::default())
-        .with_directions(directions)
-        .go()
+    run_full(name, frames, directions, method, FoldParams::default())
 }
 
-/// A run of `name`'s first animation with a pass built with `params`.
-struct RunSpec<'a> {
-    name: &'a str,
+/// A run of `name`'s first animation (no configured direction) with a pass built with
+/// `params`.
+fn run_params(name: &str, frames: usize, method: Method, params: FoldParams) -> Run {
+    run_full(name, frames, &[], method, params)
+}
+
+fn run_full(
+    name: &str,
     frames: usize,
+    directions: &[(String, DirectionSource)],
     method: Method,
     params: FoldParams,
-    directions: &'a [(String, DirectionSource)],
-}
-
-fn run_params(name: &str, frames: usize, method: Method, params: FoldParams) -> RunSpec<'_> {
-    RunSpec {
-        name,
-        frames,
-        method,
-        params,
-        directions: &[],
-    }
-}
-
-impl<'a> RunSpec<'a> {
-    fn with_directions(self, directions: &'a [(String, DirectionSource)]) -> Self {
-        Self { directions, ..self }
-    }
-
-    fn go(self) -> Run {
-        run_spec(&self)
-    }
-}
-
-fn run_spec(spec: &RunSpec) -> Run {
-    let (name, frames) = (spec.name, spec.frames);
-    let l = load_with(name, frames, spec.method);
-    let pass = self_pass_with(&l, spec.directions, spec.params);
+) -> Run {
+    let l = load_with(name, frames, method);
+    let pass = self_pass_with(&l, directions, params);
     let (mut rows, mut ins, mut outs) = (Vec::new(), Vec::new(), Vec::new());
     let mut steepness = 0.0f64;
     let mut bulge_guarded = 0;
@@ -243,8 +223,8 @@ fn bending_capsule_fold() {
 /// the issue note): up to 6 penetrating vertices (CoR; DQS 4) at 120-150°, none deeper than
 /// 0.23 h (DQS 0.15 h; 0.13 h without the bulge guard), and the temporal ratio reaches 22
 /// (the input folds over along `d̂` at the inner elbow, and a vertex the crease cut moves
-/// across jumps by about 2 h). Without the
-/// turn guard 15 and 9 faces turned at the crease's bottom (see
+/// across jumps by about 2 h). Without the turn guard 15 and 9 faces turned at the crease's
+/// bottom (see
 /// [`the_turn_guard_keeps_faces_from_turning`]; before the amplitude faded across the crease:
 /// 17 and 19; with `τ = 0`: CoR 30, DQS 22; before the buried band got the crease's
 /// intersection terms: CoR 57, DQS 61).
@@ -339,7 +319,7 @@ fn the_lbs_folds_resolve_without_the_bulge_guard() {
         ..FoldParams::default()
     };
     for name in ["bending_capsule", "finger", "mouth"] {
-        let r = run_params(name, 31, Method::Lbs, free).go();
+        let r = run_params(name, 31, Method::Lbs, free);
         check(name, &r, 0, 0, 3.0);
         assert_eq!(r.bulge_guarded, 0, "{name}: the guard is off");
     }
@@ -355,7 +335,7 @@ fn volume_preserving_input_without_the_bulge_guard() {
         ..FoldParams::default()
     };
     for method in [Method::Cor, Method::Dqs] {
-        let r = run_params("bending_capsule", 31, method, free).go();
+        let r = run_params("bending_capsule", 31, method, free);
         for x in r.rows.iter().filter(|x| x.folds > 0) {
             let f = x.frame;
             assert_eq!(x.nan, 0, "{method:?} frame {f}: NaN");
