@@ -310,27 +310,37 @@ fn mouth_shared_region_covers_both_lip_corners() {
     // One part per corner, each with both borders.
     assert_eq!(p.partition.components, 2);
     assert_eq!(p.partition.one_sided_components, 0);
-    // The lip ring: straight lips |x| ≤ 0.5, corners of radius 0.2 centered at (±0.5, 0), the
-    // commissure (corner tip) at (±0.7, 0). R lies on the lower lip's corners, on both sides,
-    // from the straight part into the corner arc close to the commissure.
+    // The lip ring: straight lips |x| ≤ 0.5 at y = ±0.2 (sections 0.15 high), corners of radius
+    // 0.2 centered at (±0.5, 0), the commissure (corner tip) at (±0.7, 0). R is a band round
+    // each corner, over both lips from their straight parts through the commissure, symmetric
+    // about it (the rig's corners half on each bone), with β = 0.5 at the commissure.
     for side in [-1.0, 1.0] {
-        let on_side: Vec<&Point3<f64>> = p
+        let on_side: Vec<u32> = p
             .shared
             .iter()
-            .map(|&v| &pos[v as usize])
-            .filter(|q| q.x * side > 0.0)
+            .copied()
+            .filter(|&v| pos[v as usize].x * side > 0.0)
             .collect();
-        assert!(!on_side.is_empty());
-        assert!(on_side.iter().all(|q| q.y < 0.0 && q.x.abs() > 0.2));
-        // Angle below the commissure, seen from the corner's center.
-        let closest = on_side
+        let at = |v: &u32| &pos[*v as usize];
+        assert!(on_side.iter().all(|v| at(v).x.abs() > 0.2));
+        let top = on_side.iter().map(|v| at(v).y).fold(f64::MIN, f64::max);
+        let bottom = on_side.iter().map(|v| -at(v).y).fold(f64::MIN, f64::max);
+        println!("side {side}: R from y = {:.3} to {top:.3}", -bottom);
+        assert!(top > 0.3 && (top - bottom).abs() < 0.02, "{top} {bottom}");
+        for upper in [true, false] {
+            assert!(on_side
+                .iter()
+                .any(|v| at(v).x.abs() < 0.5 && (at(v).y > 0.0) == upper));
+        }
+        let commissure: Vec<f64> = on_side
             .iter()
-            .filter(|q| q.x.abs() > 0.5)
-            .map(|q| (-q.y).atan2(q.x.abs() - 0.5).to_degrees())
-            .fold(f64::MAX, f64::min);
-        let straight = on_side.iter().any(|q| q.x.abs() < 0.5);
-        println!("side {side}: R reaches {closest:.1} deg below the commissure");
-        assert!(straight && closest < 30.0);
+            .filter(|v| at(v).y.abs() < 0.03 && at(v).x.abs() > 0.5)
+            .map(|&v| p.beta[v as usize])
+            .collect();
+        assert!(!commissure.is_empty());
+        let mean = commissure.iter().sum::<f64>() / commissure.len() as f64;
+        println!("side {side}: mean β {mean:.3} at the commissure");
+        assert!((mean - 0.5).abs() < 0.05, "β {mean} at the commissure");
     }
     // The middle of each lip belongs to one region only.
     for (v, q) in pos.iter().enumerate() {

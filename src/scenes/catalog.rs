@@ -245,15 +245,26 @@ const JAW_HINGE: [f64; 3] = [0.0, 0.2, -1.2];
 /// Jaw rotation about +X at the end of "close", degrees (negative closes).
 const JAW_CLOSE: f64 = -11.0;
 
-/// Jaw weight of a lip section centered at `center`: the lower lip follows the jaw fully in
-/// its middle (|x| < 0.25) and less and less toward the corner tips, where it joins the upper
-/// lip (head only). Weights are constant over a section, so sections move rigidly.
+/// Half width, in arc length along the lip ring's centerline, of the band over which the jaw
+/// weight goes from 0 (upper lip) to 1 (lower lip) round each corner: the corner's quarter arcs
+/// and 0.25 of each straight lip, so the middle of each lip (|x| < 0.25) follows one bone.
+const CORNER_BAND: f64 = 0.25 + std::f64::consts::FRAC_PI_2 * LIPS.corner;
+
+/// Jaw weight of a lip section centered at `center`: 0.5 at the corner tips (the
+/// commissures), rising by a smoothstep of the arc length along the centerline to 1 on the
+/// lower lip and falling to 0 on the upper lip, each `CORNER_BAND` away (the corners move half
+/// with the jaw, as in face rigs). The shared region is then a band round each corner,
+/// symmetric about the crease the closing mouth makes there, as the paper asks of a shared
+/// region (Sec. 6). Weights are constant over a section, so sections move rigidly.
 fn jaw_weight(center: &Point3<f64>) -> f64 {
-    if center.y >= 0.0 {
-        return 0.0;
-    }
-    let (inner, tip) = (0.25, LIPS.half_length + LIPS.corner);
-    1.0 - smoothstep((center.x.abs() - inner) / (tip - inner))
+    let beyond = center.x.abs() - LIPS.half_length;
+    // Signed arc length from the corner tip, positive on the lower lip.
+    let arc = if beyond > 0.0 {
+        -LIPS.corner * center.y.atan2(beyond)
+    } else {
+        (std::f64::consts::FRAC_PI_2 * LIPS.corner - beyond).copysign(-center.y)
+    };
+    smoothstep(0.5 + arc / (2.0 * CORNER_BAND))
 }
 
 /// Both lips as one closed ring facing +Z (a tube swept along a stadium), on a head and a jaw

@@ -99,8 +99,9 @@ impl Scene {
                  of the paper's skinned finger (Table 1, 1967 + 2951 vertices), for the benchmark"
             }
             Scene::Mouth => {
-                "upper and lower lip as one ring mesh (slit 0.1 high), head and jaw bones; 'close' turns \
-                 the jaw 11 deg: the lower lip sinks 0.12 into the upper one; contact direction vertical (Fig. 1d)"
+                "upper and lower lip as one ring mesh (slit 0.1 high), head and jaw bones, the corners \
+                 half on each; 'close' turns the jaw 11 deg: the lower lip sinks 0.12 into the upper one \
+                 and the corners fold; contact direction vertical (Fig. 1d)"
             }
             Scene::CapsulePair => {
                 "two separate capsules (r 0.25) crossing at right angles; 'press' sinks the upper one \
