@@ -605,7 +605,7 @@ fn mouth_closes_with_the_motion_direction() {
 /// frame 21 of 31 on the fold found no contact zone and left the input's penetration (464 to
 /// 588 vertices). The rest fold's sense keeps the direction (`skeleton_direction`, past a full
 /// fold), within 12° of the paper's vertical in every frame with a fold (measured
-/// 9.3-11.5°), and the mouth closes as with the vertical.
+/// 8.4-11.5°), and the mouth closes as with the vertical.
 #[test]
 fn mouth_closes_with_the_skeleton_direction() {
     let r = run("mouth", 31, &[]);
@@ -1129,15 +1129,15 @@ fn crease_cut_follows_the_silhouette() {
 /// within one ring everywhere on the finger and the capsule. The mouth's shared region is a
 /// band round each lip corner, so its cut is a loop round the lip: where it crosses the fold
 /// (within one ring of a crossing face) it lies on the silhouette (0 rings; 36 of its 152 cut
-/// vertices there at the deepest frames), and it closes round the front and back of the lip,
-/// 5-11 rings from the fold, up to 3 rings from the silhouette, whose lines there run along the
-/// lip (4 rings with the skeleton's direction, 8-12° from the vertical; until 2026-12-03, when
-/// the rig's corners followed the head alone, the cut never met the fold and lay 8 rings from
-/// the silhouette). With it, `PIPELINE.md`'s
+/// vertices there at the deepest frames; the first 9 of its 20 cuts, before the corners fold,
+/// do not meet the fold), and it closes round the front and back of the lip, away from the
+/// fold, up to 3 rings from the silhouette, whose lines there run along the lip (4 rings with
+/// the skeleton's direction, 8-12° from the vertical; until 2026-12-03, when the rig's corners
+/// followed the head alone, the cut never met the fold and lay 8 rings from the silhouette). With it, `PIPELINE.md`'s
 /// other check of the cut: every pair of faces that cross (the detection's, across `β = 0.5`)
 /// straddles it. Measured: on the capsule with all three inputs and on the mouth, in every
 /// frame; on the finger
-/// 4 pairs in 2 of its 58 cuts (the middle-distal joint, frames 28 and 29: a face across the
+/// 3 pairs in 2 of its 58 cuts (the middle-distal joint, frames 28 and 29: a face across the
 /// silhouette, at the crease's bottom, goes with its two corners past it to the side of the
 /// face it crosses). Not measured here: a second sweep, which starts from the first's output,
 /// where both sides lie on one contact surface and their faces cross by a fraction of an edge
@@ -1149,17 +1149,19 @@ fn crease_cut_follows_the_silhouette_on_every_rig() {
         "lips/head-jaw".to_string(),
         DirectionSource::Fixed(-Vector3::y()),
     )];
-    for (name, method, directions, unseparated_at_most, rings_away_from_fold) in [
-        ("finger", Method::Lbs, vec![], 4, 1),
-        ("bending_capsule", Method::Lbs, vec![], 0, 1),
-        ("bending_capsule", Method::Cor, vec![], 0, 1),
-        ("bending_capsule", Method::Dqs, vec![], 0, 1),
-        ("mouth", Method::Lbs, vertical, 0, 3),
+    // (rig, input, directions, crossing pairs left on one side, rings from the silhouette
+    // away from the fold, cuts that do not meet the fold)
+    for (name, method, directions, unseparated_at_most, rings_away_from_fold, missing_at_most) in [
+        ("finger", Method::Lbs, vec![], 4, 1, 0),
+        ("bending_capsule", Method::Lbs, vec![], 0, 1, 0),
+        ("bending_capsule", Method::Cor, vec![], 0, 1, 0),
+        ("bending_capsule", Method::Dqs, vec![], 0, 1, 0),
+        ("mouth", Method::Lbs, vertical, 0, 3, 9),
     ] {
         let l = load_with(name, 31, method);
         let pass = self_pass(&l, &directions).with_passes(1);
         let pairs = derive_pairs(&l.rig, &l.pre.welded, &RegionOptions::default()).expect("pairs");
-        let (mut worst, mut cuts, mut unseparated) = (CutRings::default(), 0, 0);
+        let (mut worst, mut cuts, mut unseparated, mut missing) = (CutRings::default(), 0, 0, 0);
         for f in 0..31 {
             let mut out = l.frame(f);
             let pose = l.rig.pose_at(Some(0), l.times[f]);
@@ -1185,6 +1187,7 @@ fn crease_cut_follows_the_silhouette_on_every_rig() {
                 worst.everywhere = worst.everywhere.max(rings.everywhere);
                 worst.at_fold = worst.at_fold.max(rings.at_fold);
                 worst.at_fold_vertices += rings.at_fold_vertices;
+                missing += usize::from(rings.at_fold_vertices == 0);
                 cuts += 1;
                 let labels = cut_sides(&l.triangles[b], r, &fold.output.crease.on_w1);
                 unseparated += crossing
@@ -1195,14 +1198,15 @@ fn crease_cut_follows_the_silhouette_on_every_rig() {
             }
         }
         println!(
-            "{name} ({method:?}): {cuts} crease cuts, within {} rings of the silhouette ({} at \
-             the fold, {} cut vertices there), {unseparated} crossing face pairs on one side",
+            "{name} ({method:?}): {cuts} crease cuts, {missing} not meeting the fold, within {} \
+             rings of the silhouette ({} at the fold, {} cut vertices there over the cuts), \
+             {unseparated} crossing face pairs on one side",
             worst.everywhere, worst.at_fold, worst.at_fold_vertices
         );
         assert!(cuts > 0, "{name}: folds");
         assert!(
-            worst.at_fold_vertices > 0,
-            "{name} ({method:?}): the crease cut never meets the fold"
+            missing <= missing_at_most,
+            "{name} ({method:?}): {missing} of {cuts} crease cuts do not meet the fold"
         );
         assert!(
             worst.at_fold <= 1,

@@ -245,10 +245,14 @@ const JAW_HINGE: [f64; 3] = [0.0, 0.2, -1.2];
 /// Jaw rotation about +X at the end of "close", degrees (negative closes).
 const JAW_CLOSE: f64 = -11.0;
 
+/// Half length of the middle of each lip, which follows one bone only (|x| < 0.25).
+const LIP_MIDDLE: f64 = 0.25;
+
 /// Half width, in arc length along the lip ring's centerline, of the band over which the jaw
-/// weight goes from 0 (upper lip) to 1 (lower lip) round each corner: the corner's quarter arcs
-/// and 0.25 of each straight lip, so the middle of each lip (|x| < 0.25) follows one bone.
-const CORNER_BAND: f64 = 0.25 + std::f64::consts::FRAC_PI_2 * LIPS.corner;
+/// weight goes from 0 (upper lip) to 1 (lower lip) round each corner: from the corner tip, a
+/// quarter arc and the straight lip beyond |x| = `LIP_MIDDLE`.
+const CORNER_BAND: f64 =
+    (LIPS.half_length - LIP_MIDDLE) + std::f64::consts::FRAC_PI_2 * LIPS.corner;
 
 /// Jaw weight of a lip section centered at `center`: 0.5 at the corner tips (the
 /// commissures), rising by a smoothstep of the arc length along the centerline to 1 on the
