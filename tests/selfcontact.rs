@@ -1144,13 +1144,15 @@ fn crease_cut_follows_the_silhouette() {
         let frame = fold.at(f, &FoldParams::default());
         let Some(out) = frame.out else { continue };
         cut_frames += 1;
-        let dist = crease_distance_to_silhouette(
+        let dist = cut_rings(
             &fold.l.triangles[0],
             &frame.normals,
             &out.crease.on_w1,
             &shared,
             &frame.direction,
-        );
+            &[],
+        )
+        .everywhere;
         println!("frame {f}: crease vertices within {dist} rings of the silhouette");
         worst = worst.max(dist);
     }
@@ -1308,18 +1310,6 @@ fn cut_sides(
             }
         })
         .collect()
-}
-
-/// Largest topological distance (in rings) from a vertex of a cut edge of the shared region to
-/// the silhouette of the shared region seen from `d̂`.
-fn crease_distance_to_silhouette(
-    triangles: &[[u32; 3]],
-    normals: &[nalgebra::Vector3<f64>],
-    on_w1: &[bool],
-    shared: &[bool],
-    d: &nalgebra::Vector3<f64>,
-) -> usize {
-    cut_rings(triangles, normals, on_w1, shared, d, &[]).everywhere
 }
 
 /// How far a crease cut lies from the silhouette of the shared region seen from `d̂`, in rings
