@@ -32,12 +32,14 @@
 //! omega = 2.0
 //! turn_guard = true               # scale the displacement back where a face would turn over
 //! bulge_guard = true              # scale the bulge back where it would enter the other part
+//! free_isolated_crease = false    # true: no sign at isolated crease vertices (lips, LBS)
 //! direction = "skeleton"          # every pair's default: "skeleton" or "motion"
 //! [[self_contact.pair]]
 //! name = "lips/head-jaw"          # a derived joint pair (`contact-skin info`)
 //! direction = [0.0, -1.0, 0.0]    # W1's (parent side's) outward direction at the fold,
 //!                                 # or "skeleton", or "motion" (relative motion of the parts)
 //! gamma = 0.5                     # this pair's τ, γ, ω (each optional; default the section's)
+//! free_isolated_crease = true     # and this (optional)
 //! ```
 //!
 //! [`ContactConfig::load`] parses and checks every number (no rig needed);
@@ -484,6 +486,8 @@ pub struct SelfContactSpec {
     pub turn_guard: Option<bool>,
     /// [`FoldParams::bulge_guard`] (default `true`).
     pub bulge_guard: Option<bool>,
+    /// [`FoldParams::free_isolated_crease`] (default `false`).
+    pub free_isolated_crease: Option<bool>,
     /// Where the pairs without a `[[self_contact.pair]]` direction take theirs from:
     /// `"skeleton"` (default) or `"motion"`.
     pub direction: Option<SelfDirection>,
@@ -507,16 +511,21 @@ pub struct SelfPairSpec {
     pub gamma: Option<f64>,
     /// `ω` of this pair's procedural bulge map.
     pub omega: Option<f64>,
+    /// [`FoldParams::free_isolated_crease`] for this pair.
+    pub free_isolated_crease: Option<bool>,
 }
 
 impl SelfPairSpec {
-    /// Whether it sets any of `τ`, `γ`, `ω`.
+    /// Whether it sets any of `τ`, `γ`, `ω`, `free_isolated_crease`.
     pub fn sets_params(&self) -> bool {
-        self.tau.is_some() || self.gamma.is_some() || self.omega.is_some()
+        self.tau.is_some()
+            || self.gamma.is_some()
+            || self.omega.is_some()
+            || self.free_isolated_crease.is_some()
     }
 
-    /// The section's fold parameters `section` with this pair's `τ`, `γ`, `ω`; `None` when it
-    /// sets none of them.
+    /// The section's fold parameters `section` with this pair's `τ`, `γ`, `ω` and
+    /// `free_isolated_crease`; `None` when it sets none of them.
     pub fn params(&self, section: &FoldParams) -> Option<FoldParams> {
         if !self.sets_params() {
             return None;
@@ -530,6 +539,9 @@ impl SelfPairSpec {
         }
         if let Some(w) = self.omega {
             p.deform.omega = w;
+        }
+        if let Some(free) = self.free_isolated_crease {
+            p.free_isolated_crease = free;
         }
         Some(p)
     }
@@ -548,8 +560,8 @@ pub struct SelfContactSettings {
     /// Where each pair's direction comes from, by pair name (fixed directions normalized);
     /// pairs not listed use the skeleton's.
     pub directions: Vec<(String, DirectionSource)>,
-    /// The fold parameters of the pairs that set their own `τ`, `γ` or `ω`, by pair name
-    /// (the others use `params`).
+    /// The fold parameters of the pairs that set their own `τ`, `γ`, `ω` or
+    /// `free_isolated_crease`, by pair name (the others use `params`).
     pub pair_params: Vec<(String, FoldParams)>,
     /// Sweeps over the folds per frame.
     pub passes: usize,
@@ -834,7 +846,8 @@ impl ContactConfig {
             return Err(self.invalid(
                 field,
                 format!(
-                    "sets nothing for '{}' (give direction, tau, gamma or omega)",
+                    "sets nothing for '{}' (give direction, tau, gamma, omega or \
+                     free_isolated_crease)",
                     p.name
                 ),
             ));
@@ -1244,6 +1257,9 @@ impl ContactConfig {
         }
         if let Some(guard) = spec.bulge_guard {
             params.bulge_guard = guard;
+        }
+        if let Some(free) = spec.free_isolated_crease {
+            params.free_isolated_crease = free;
         }
         if let Some(k) = spec.joint_extent {
             params.joint_extent = Some(k);

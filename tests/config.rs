@@ -703,6 +703,7 @@ fn the_self_contact_table_parses_and_resolves() {
             tau: None,
             gamma: None,
             omega: None,
+            free_isolated_crease: None,
         }]
     );
     assert!(cfg.self_contact_enabled());
@@ -803,6 +804,25 @@ fn the_bulge_guard_is_a_setting() {
     let off = resolve_self(&dir, "[self_contact]\nbulge_guard = false\n").expect("resolves");
     assert!(!off.params.bulge_guard);
     assert!(resolve_self(&dir, "[self_contact]\nbulge_guard = \"yes\"\n").is_err());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `free_isolated_crease` is off by default and can be turned on for every pair or for one.
+#[test]
+fn freeing_isolated_crease_vertices_is_a_setting() {
+    let dir = mouth_dir("free-crease");
+    let default = resolve_self(&dir, "[self_contact]\n").expect("resolves");
+    assert!(!default.params.free_isolated_crease);
+    let on = resolve_self(&dir, "[self_contact]\nfree_isolated_crease = true\n").expect("resolves");
+    assert!(on.params.free_isolated_crease);
+    let pair = "[self_contact]\n[[self_contact.pair]]\nname = \"lips/head-jaw\"\n\
+                free_isolated_crease = true\n";
+    let own = resolve_self(&dir, pair).expect("resolves");
+    assert!(!own.params.free_isolated_crease);
+    assert_eq!(own.pair_params.len(), 1);
+    assert_eq!(own.pair_params[0].0, "lips/head-jaw");
+    assert!(own.pair_params[0].1.free_isolated_crease);
+    assert!(resolve_self(&dir, "[self_contact]\nfree_isolated_crease = 1\n").is_err());
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -102,7 +102,10 @@ struct SelfPairInfo {
     tau: f64,
     gamma: f64,
     omega: f64,
-    /// Whether `[[self_contact.pair]]` sets any of `τ`, `γ`, `ω` for this pair.
+    /// `FoldParams::free_isolated_crease` of this pair.
+    free_isolated_crease: bool,
+    /// Whether `[[self_contact.pair]]` sets any of `τ`, `γ`, `ω`, `free_isolated_crease` for
+    /// this pair.
     own_params: bool,
 }
 
@@ -289,6 +292,7 @@ fn describe_self_contact(
                 tau: q.tau,
                 gamma: q.deform.gamma,
                 omega: q.deform.omega,
+                free_isolated_crease: q.free_isolated_crease,
                 own_params: own.is_some(),
                 joint_size,
                 extent: f.joint_extent.map_or(f.deform.extent, |k| k * joint_size),
@@ -390,6 +394,11 @@ fn print_self_contact(s: &SelfContactInfo) {
             )
         } else {
             String::new()
+        };
+        let own = if p.free_isolated_crease {
+            format!("{own}, isolated crease vertices free")
+        } else {
+            own
         };
         println!(
             "    pair '{}' (body {} '{}', joints '{}' -> '{}'): shared region {} vertices, joint size {:.6}, extent {:.6}, {direction}{own}",
