@@ -822,6 +822,12 @@ fn freeing_isolated_crease_vertices_is_a_setting() {
     assert_eq!(own.pair_params.len(), 1);
     assert_eq!(own.pair_params[0].0, "lips/head-jaw");
     assert!(own.pair_params[0].1.free_isolated_crease);
+    // A pair can turn it off where the section turns it on.
+    let off = "[self_contact]\nfree_isolated_crease = true\n[[self_contact.pair]]\n\
+               name = \"lips/head-jaw\"\nfree_isolated_crease = false\n";
+    let off = resolve_self(&dir, off).expect("resolves");
+    assert!(off.params.free_isolated_crease);
+    assert!(!off.pair_params[0].1.free_isolated_crease);
     assert!(resolve_self(&dir, "[self_contact]\nfree_isolated_crease = 1\n").is_err());
     let _ = std::fs::remove_dir_all(&dir);
 }

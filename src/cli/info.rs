@@ -389,7 +389,7 @@ fn print_self_contact(s: &SelfContactInfo) {
         };
         let own = if p.own_params {
             format!(
-                ", tau {}, gamma {}, omega {} (configured)",
+                ", tau {}, gamma {}, omega {} (this pair's)",
                 p.tau, p.gamma, p.omega
             )
         } else {

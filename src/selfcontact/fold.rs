@@ -1168,10 +1168,12 @@ struct ZoneSigns<'a> {
 }
 
 impl<'a> ZoneSigns<'a> {
-    /// The zones' signs, with the isolated shallow crease vertices left free when `free_isolated`.
+    /// The zones' signs, with the isolated shallow crease vertices left free when `free_isolated`
+    /// (no per-vertex array otherwise).
     fn new(pre: &FoldPre, contact: &'a Contact, free_isolated: bool) -> Self {
-        let mut free = vec![false; contact.sides[0].zone.inside.len()];
+        let mut free = Vec::new();
         if free_isolated {
+            free = vec![false; contact.sides[0].zone.inside.len()];
             isolated_shallow(pre, contact, &mut free);
         }
         Self { contact, free }
@@ -1193,16 +1195,19 @@ impl<'a> ZoneSigns<'a> {
     }
 }
 
-/// Marks in `free` the zone vertices of the shared region whose sample lies at most `ε_c` deep
-/// (the crease vertices that [`zones_to_the_crease`] added: Eq. 3 takes only deeper ones) and
-/// that have no deeper vertex of their own zone among their neighbours in `R`.
+/// Marks in `free` the zone vertices of the shared region whose sample lies less than `ε_c`
+/// deep (the crease vertices that [`zones_to_the_crease`] added: Eq. 3 takes only those at
+/// least `ε_c` deep) and that have no vertex of their zone at least `ε_c` deep among their
+/// neighbours in `R`. The zone is the one whose sign they carry ([`ZoneSigns::at`]: `C_1`
+/// first). A freed vertex on a border of `R` keeps that border's value, as any free vertex of
+/// `R` there.
 fn isolated_shallow(pre: &FoldPre, contact: &Contact, free: &mut [bool]) {
     let region = &pre.shared.solver.region;
     let shallow = |k: usize, v: usize| {
         contact.sides[k]
             .samples
             .get(v)
-            .is_some_and(|s| s.depth <= contact.threshold)
+            .is_some_and(|s| s.depth < contact.threshold)
     };
     let in_zone = |k: usize, v: usize| contact.sides[k].zone.inside[v];
     let mut deep_next = vec![[false; 2]; region.vertex_count()];
@@ -1216,7 +1221,10 @@ fn isolated_shallow(pre: &FoldPre, contact: &Contact, free: &mut [bool]) {
     }
     for (l, &v) in region.vertices.iter().enumerate() {
         let v = v as usize;
-        free[v] = (0..2).any(|k| in_zone(k, v) && shallow(k, v) && !deep_next[l][k]);
+        let Some(k) = (0..2).find(|&k| in_zone(k, v)) else {
+            continue;
+        };
+        free[v] = shallow(k, v) && !deep_next[l][k];
     }
 }
 
