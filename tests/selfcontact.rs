@@ -7,7 +7,7 @@ use contact_skin::mesh::operators::{vertex_normals, NormalWeighting};
 use contact_skin::report::metrics;
 use contact_skin::rig;
 use contact_skin::selfcontact::fold::{FoldInput, FoldParams};
-use contact_skin::selfcontact::pass::{SelfContactPass, SelfPassOutput};
+use contact_skin::selfcontact::pass::{FoldReport, SelfContactPass, SelfPassOutput};
 use contact_skin::selfcontact::turn_guard::TurnReference;
 use contact_skin::selfcontact::{DirectionSource, RegionOptions};
 use contact_skin::skinning::Method;
@@ -584,6 +584,27 @@ fn further_sweeps_resolve_what_two_leave() {
     }
 }
 
+/// The paper's hand-set direction of the mouth (Fig. 1d): vertical, the upper lip's outward
+/// direction -Y.
+fn mouth_vertical() -> Vec<(String, DirectionSource)> {
+    vec![(
+        "lips/head-jaw".to_string(),
+        DirectionSource::Fixed(-Vector3::y()),
+    )]
+}
+
+/// The mouth closing with the vertical direction and `params`, at 31 and 61 frames, each
+/// passing [`check`] (no penetrating vertex, no turned face, ratio below 3), and its edge
+/// length at rest.
+fn mouth_closing(params: FoldParams) -> (Run, Run, f64) {
+    let dirs = mouth_vertical();
+    let coarse = run_full("mouth", 31, &dirs, Method::Lbs, params);
+    let fine = run_full("mouth", 61, &dirs, Method::Lbs, params);
+    check("mouth", &coarse, 0, 0, 3.0);
+    check("mouth", &fine, 0, 0, 3.0);
+    (coarse, fine, load("mouth", 2).h_rest)
+}
+
 /// The mouth closing, with the paper's hand-set vertical direction (Fig. 1d): the upper lip's
 /// outward direction is -Y. The jaw stops abruptly (frame 24 of 31). Sampled twice as finely,
 /// the input's largest second difference halves (0.31 -> 0.15 h), and so does the output's
@@ -596,16 +617,8 @@ fn further_sweeps_resolve_what_two_leave() {
 /// guards the pop's size.
 #[test]
 fn mouth_closes() {
-    let dirs = [(
-        "lips/head-jaw".to_string(),
-        DirectionSource::Fixed(-Vector3::y()),
-    )];
-    let coarse = run("mouth", 31, &dirs);
-    let fine = run("mouth", 61, &dirs);
+    let (coarse, fine, h) = mouth_closing(FoldParams::default());
     assert_eq!(coarse.pairs.len(), 1);
-    check("mouth", &coarse, 0, 0, 3.0);
-    check("mouth", &fine, 0, 0, 3.0);
-    let h = load("mouth", 2).h_rest;
     let middle = |r: &Run| r.output_max_where(|p| p.x.abs() < 0.45) / h;
     println!(
         "mouth: largest second difference {:.2} h at 31 frames, {:.2} h at 61; over the lips' \
@@ -634,19 +647,10 @@ fn mouth_closes() {
 /// the setting 0.44 -> 0.34 h), with no penetrating vertex nor turned face.
 #[test]
 fn freeing_isolated_crease_vertices_removes_the_mouths_pop() {
-    let dirs = [(
-        "lips/head-jaw".to_string(),
-        DirectionSource::Fixed(-Vector3::y()),
-    )];
-    let params = FoldParams {
+    let (coarse, fine, h) = mouth_closing(FoldParams {
         free_isolated_crease: true,
         ..FoldParams::default()
-    };
-    let coarse = run_full("mouth", 31, &dirs, Method::Lbs, params);
-    let fine = run_full("mouth", 61, &dirs, Method::Lbs, params);
-    check("mouth", &coarse, 0, 0, 3.0);
-    check("mouth", &fine, 0, 0, 3.0);
-    let h = load("mouth", 2).h_rest;
+    });
     println!(
         "mouth, isolated crease vertices free: largest second difference {:.3} h at 31 frames, \
          {:.3} h at 61",
@@ -670,62 +674,31 @@ fn freeing_isolated_crease_vertices_removes_the_mouths_pop() {
 #[test]
 fn isolated_crease_vertices_are_freed_and_attached_ones_keep_their_sign() {
     use contact_skin::selfcontact::derive_pairs;
-    let vertical = vec![(
-        "lips/head-jaw".to_string(),
-        DirectionSource::Fixed(-Vector3::y()),
-    )];
     let mut attached_anywhere = 0;
     for (name, method, directions) in [
-        ("mouth", Method::Lbs, vertical),
+        ("mouth", Method::Lbs, mouth_vertical()),
         ("bending_capsule", Method::Cor, vec![]),
     ] {
         let l = load_with(name, 31, method);
         let pairs = derive_pairs(&l.rig, &l.pre.welded, &RegionOptions::default()).expect("pairs");
-        let r = &pairs[0];
-        let adj = vertex_adjacency(r.w1.len(), &l.triangles[0]);
-        let (mut attached, mut isolated, mut freed) = (0, 0, 0);
+        let adj = vertex_adjacency(pairs[0].w1.len(), &l.triangles[0]);
+        let mut counts = ShallowSigns::default();
         for free in [false, true] {
             let params = FoldParams {
                 free_isolated_crease: free,
                 ..FoldParams::default()
             };
             let pass = self_pass_with(&l, &directions, params).with_passes(1);
-            for f in 0..31 {
-                let mut out = l.frame(f);
-                let pose = l.rig.pose_at(Some(0), l.times[f]);
-                let res = pass.run(&l.rig, &pose, &mut out).expect("pass runs");
-                for fold in &res.folds {
-                    let (c, sigma) = (&fold.output.contact, &fold.output.sigma);
-                    let shared = |v: usize| r.w1[v] && r.w2[v];
-                    let depth = |k: usize, v: usize| c.sides[k].samples.get(v).map(|s| s.depth);
-                    for v in (0..sigma.len()).filter(|&v| shared(v)) {
-                        let Some(k) = (0..2).find(|&k| c.sides[k].zone.inside[v]) else {
-                            continue;
-                        };
-                        let sign = if k == 0 { 1.0 } else { -1.0 };
-                        if depth(k, v).is_none_or(|d| d >= c.threshold) {
-                            assert_eq!(sigma[v], sign, "{name} frame {f}: a zone vertex");
-                            continue;
-                        }
-                        let deep_next = adj[v].iter().any(|&w| {
-                            shared(w)
-                                && c.sides[k].zone.inside[w]
-                                && depth(k, w).is_none_or(|d| d >= c.threshold)
-                        });
-                        if !free || deep_next {
-                            assert_eq!(
-                                sigma[v], sign,
-                                "{name} frame {f}: vertex {v} keeps its sign"
-                            );
-                            attached += usize::from(free);
-                        } else {
-                            isolated += 1;
-                            freed += usize::from(sigma[v] != sign);
-                        }
-                    }
-                }
-            }
+            each_fold(&l, &pass, |f, fold, _| {
+                let at = format!("{name} frame {f}");
+                shallow_signs(fold, &pairs[0], &adj, free, &at, &mut counts);
+            });
         }
+        let ShallowSigns {
+            attached,
+            isolated,
+            freed,
+        } = counts;
         println!(
             "{name} ({method:?}), setting on: {attached} shallow zone vertices next to a deep one \
              kept their sign; {isolated} isolated, {freed} of them off their sign"
@@ -738,6 +711,76 @@ fn isolated_crease_vertices_are_freed_and_attached_ones_keep_their_sign() {
         attached_anywhere > 0,
         "crease vertices next to deep ones occur"
     );
+}
+
+/// Counts of [`shallow_signs`] with the setting on.
+#[derive(Default)]
+struct ShallowSigns {
+    /// Shallow zone vertices next to a deep vertex of their zone (they keep their sign).
+    attached: usize,
+    /// Shallow zone vertices with none.
+    isolated: usize,
+    /// Of those, the ones whose `σ` is off their zone's sign.
+    freed: usize,
+}
+
+/// Checks `fold`'s `σ` at the zone vertices of the shared region of `r`: ±1 at those at
+/// least `ε_c` deep, and at the shallower ones unless `free` and none of their neighbours
+/// (`adj`) in `R` is a deep vertex of their zone; counts them.
+fn shallow_signs(
+    fold: &FoldReport,
+    r: &contact_skin::selfcontact::PairRegions,
+    adj: &[Vec<usize>],
+    free: bool,
+    at: &str,
+    counts: &mut ShallowSigns,
+) {
+    let (c, sigma) = (&fold.output.contact, &fold.output.sigma);
+    let shared = |v: usize| r.w1[v] && r.w2[v];
+    let deep = |k: usize, v: usize| {
+        c.sides[k].zone.inside[v]
+            && c.sides[k]
+                .samples
+                .get(v)
+                .is_none_or(|s| s.depth >= c.threshold)
+    };
+    for v in (0..sigma.len()).filter(|&v| shared(v)) {
+        let Some(k) = (0..2).find(|&k| c.sides[k].zone.inside[v]) else {
+            continue;
+        };
+        let sign = if k == 0 { 1.0 } else { -1.0 };
+        if deep(k, v) {
+            assert_eq!(sigma[v], sign, "{at}: a zone vertex");
+            continue;
+        }
+        let deep_next = adj[v].iter().any(|&w| shared(w) && deep(k, w));
+        if !free || deep_next {
+            assert_eq!(sigma[v], sign, "{at}: vertex {v} keeps its sign");
+            counts.attached += usize::from(free);
+        } else {
+            counts.isolated += 1;
+            counts.freed += usize::from(sigma[v] != sign);
+        }
+    }
+}
+
+/// Runs `pass` on every frame of `l` and calls `visit(frame, fold, input)` for each fold, with
+/// the positions that fold started from (the frame's input, then each fold's output).
+fn each_fold(
+    l: &Loaded,
+    pass: &SelfContactPass,
+    mut visit: impl FnMut(usize, &FoldReport, &[Vec<Point3<f64>>]),
+) {
+    for f in 0..l.times.len() {
+        let mut out = l.frame(f);
+        let pose = l.rig.pose_at(Some(0), l.times[f]);
+        let mut before = out.clone();
+        let res = pass.run(&l.rig, &pose, &mut out).expect("pass runs");
+        for fold in &res.folds {
+            visit(f, fold, &before);
+            before[fold.body].clone_from(&fold.output.positions);
+        }
+    }
 }
 
 /// Vertex neighbours over the edges of `triangles`.
@@ -1311,10 +1354,6 @@ fn crease_cut_follows_the_silhouette() {
 #[test]
 fn crease_cut_follows_the_silhouette_on_every_rig() {
     use contact_skin::selfcontact::derive_pairs;
-    let vertical = vec![(
-        "lips/head-jaw".to_string(),
-        DirectionSource::Fixed(-Vector3::y()),
-    )];
     // (rig, input, directions, crossing pairs left on one side, rings from the silhouette
     // away from the fold, cuts that do not meet the fold)
     for (name, method, directions, unseparated_at_most, rings_away_from_fold, missing_at_most) in [
@@ -1322,47 +1361,40 @@ fn crease_cut_follows_the_silhouette_on_every_rig() {
         ("bending_capsule", Method::Lbs, vec![], 0, 1, 0),
         ("bending_capsule", Method::Cor, vec![], 0, 1, 0),
         ("bending_capsule", Method::Dqs, vec![], 0, 1, 0),
-        ("mouth", Method::Lbs, vertical, 0, 3, 9),
+        ("mouth", Method::Lbs, mouth_vertical(), 0, 3, 9),
     ] {
         let l = load_with(name, 31, method);
         let pass = self_pass(&l, &directions).with_passes(1);
         let pairs = derive_pairs(&l.rig, &l.pre.welded, &RegionOptions::default()).expect("pairs");
         let (mut worst, mut cuts, mut unseparated, mut missing) = (CutRings::default(), 0, 0, 0);
-        for f in 0..31 {
-            let mut out = l.frame(f);
-            let pose = l.rig.pose_at(Some(0), l.times[f]);
-            let mut before = out.clone();
-            let res = pass.run(&l.rig, &pose, &mut out).expect("pass runs");
-            for fold in &res.folds {
-                let b = fold.body;
-                let r = pairs
-                    .iter()
-                    .find(|p| p.pair.name == fold.name)
-                    .expect("a derived pair");
-                let shared: Vec<bool> = r.w1.iter().zip(&r.w2).map(|(a, b)| *a && *b).collect();
-                let normals = vertex_normals(&before[b], &l.triangles[b], NormalWeighting::Area);
-                let crossing = crossing_face_pairs(&before[b], &l.triangles[b], r);
-                let rings = cut_rings(
-                    &l.triangles[b],
-                    &normals,
-                    &fold.output.crease.on_w1,
-                    &shared,
-                    &fold.direction,
-                    &crossing,
-                );
-                worst.everywhere = worst.everywhere.max(rings.everywhere);
-                worst.at_fold = worst.at_fold.max(rings.at_fold);
-                worst.at_fold_vertices += rings.at_fold_vertices;
-                missing += usize::from(rings.at_fold_vertices == 0);
-                cuts += 1;
-                let labels = cut_sides(&l.triangles[b], r, &fold.output.crease.on_w1);
-                unseparated += crossing
-                    .iter()
-                    .filter(|p| labels[p[0] as usize] == labels[p[1] as usize])
-                    .count();
-                before[b].clone_from(&fold.output.positions);
-            }
-        }
+        each_fold(&l, &pass, |_, fold, before| {
+            let b = fold.body;
+            let r = pairs
+                .iter()
+                .find(|p| p.pair.name == fold.name)
+                .expect("a derived pair");
+            let shared: Vec<bool> = r.w1.iter().zip(&r.w2).map(|(a, b)| *a && *b).collect();
+            let normals = vertex_normals(&before[b], &l.triangles[b], NormalWeighting::Area);
+            let crossing = crossing_face_pairs(&before[b], &l.triangles[b], r);
+            let rings = cut_rings(
+                &l.triangles[b],
+                &normals,
+                &fold.output.crease.on_w1,
+                &shared,
+                &fold.direction,
+                &crossing,
+            );
+            worst.everywhere = worst.everywhere.max(rings.everywhere);
+            worst.at_fold = worst.at_fold.max(rings.at_fold);
+            worst.at_fold_vertices += rings.at_fold_vertices;
+            missing += usize::from(rings.at_fold_vertices == 0);
+            cuts += 1;
+            let labels = cut_sides(&l.triangles[b], r, &fold.output.crease.on_w1);
+            unseparated += crossing
+                .iter()
+                .filter(|p| labels[p[0] as usize] == labels[p[1] as usize])
+                .count();
+        });
         println!(
             "{name} ({method:?}): {cuts} crease cuts, {missing} not meeting the fold, within {} \
              rings of the silhouette ({} at the fold, {} cut vertices there over the cuts), \
