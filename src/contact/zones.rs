@@ -446,7 +446,7 @@ fn first_exit(a: &SurfaceSample, b: &SurfaceSample, eps: f64, guard: f64) -> f64
     let c1 = na.dot(&(db - da)) + (nb - na).dot(&da);
     let c2 = (nb - na).dot(&(db - da));
     let mut best = 1.0f64;
-    for r in quadratic_roots(c0, c1, c2) {
+    for r in quadratic_roots(c0, c1, c2).into_iter().flatten() {
         if r > 0.0 && r <= 1.0 {
             best = best.min(r);
         }
@@ -458,29 +458,22 @@ fn first_exit(a: &SurfaceSample, b: &SurfaceSample, eps: f64, guard: f64) -> f64
     best.clamp(0.0, 1.0)
 }
 
-/// Real roots of `c0 + c1 x + c2 x²` (numerically stable form).
-pub fn quadratic_roots(c0: f64, c1: f64, c2: f64) -> Vec<f64> {
+/// Real roots of `c0 + c1 x + c2 x²` (numerically stable form), without allocating: at most
+/// two, in the order the formula gives them.
+pub fn quadratic_roots(c0: f64, c1: f64, c2: f64) -> [Option<f64>; 2] {
     let scale = c0.abs().max(c1.abs()).max(c2.abs());
     if scale == 0.0 || !scale.is_finite() {
-        return Vec::new();
+        return [None, None];
     }
     if c2.abs() <= 1e-14 * scale {
-        return if c1 != 0.0 {
-            vec![-c0 / c1]
-        } else {
-            Vec::new()
-        };
+        return [(c1 != 0.0).then(|| -c0 / c1), None];
     }
     let disc = c1 * c1 - 4.0 * c2 * c0;
     if disc < 0.0 {
-        return Vec::new();
+        return [None, None];
     }
     let q = -0.5 * (c1 + c1.signum() * disc.sqrt());
-    let mut r = vec![q / c2];
-    if q != 0.0 {
-        r.push(c0 / q);
-    }
-    r
+    [Some(q / c2), (q != 0.0).then(|| c0 / q)]
 }
 
 /// Places the boundary point at parameter `alpha` of edge `i -> j` and projects it onto `S`

@@ -149,7 +149,7 @@ fn on_one_side(bulge: &BulgeStep, tri: &[[u32; 3]; 2]) -> bool {
         let sign = cubics[0].at(0.0).signum();
         cubics
             .iter()
-            .all(|c| c.at(0.0) != 0.0 && c.at(0.0).signum() == sign && c.roots(0.0, 1.0).is_empty())
+            .all(|c| c.at(0.0) != 0.0 && c.at(0.0).signum() == sign && !c.changes_sign(0.0, 1.0))
     })
 }
 
@@ -210,10 +210,10 @@ enum Meeting {
 /// inside the face, or the two edges crossing.
 fn first_meeting(points: &[Path; 4], kind: Meeting) -> Option<f64> {
     let cubic = Coplanarity::of(points);
-    cubic
+    let first = cubic
         .roots(0.0, 1.0)
-        .into_iter()
-        .find(|&t| meets(&points.map(|p| p.at(t)), kind))
+        .find(|&t| meets(&points.map(|p| p.at(t)), kind));
+    first
 }
 
 /// Whether four coplanar points meet: the corner in the face (barycentric coordinates in the
@@ -266,36 +266,55 @@ impl Coplanarity {
         ((self.c[3] * t + self.c[2]) * t + self.c[1]) * t + self.c[0]
     }
 
-    /// The roots in `(lo, hi]` where the sign changes, ascending: the cubic is monotone
-    /// between its critical points, each piece bisected where its ends differ in sign.
-    fn roots(&self, lo: f64, hi: f64) -> Vec<f64> {
-        let mut knots = vec![lo];
-        knots.extend(
-            self.critical_points()
-                .into_iter()
-                .filter(|&t| lo < t && t < hi),
-        );
-        knots.push(hi);
-        knots
-            .windows(2)
-            .filter_map(|w| self.bisect(w[0], w[1]))
-            .collect()
+    /// The roots in `(lo, hi]` where the sign changes, ascending, found as they are asked
+    /// for: the cubic is monotone between its critical points, each piece bisected where its
+    /// ends differ in sign.
+    fn roots(&self, lo: f64, hi: f64) -> impl Iterator<Item = f64> + '_ {
+        self.pieces(lo, hi)
+            .filter_map(move |(a, b)| self.bisect(a, b))
+    }
+
+    /// Whether the cubic changes sign in `(lo, hi]` ([`Coplanarity::roots`] not empty),
+    /// without bisecting.
+    fn changes_sign(&self, lo: f64, hi: f64) -> bool {
+        self.pieces(lo, hi).any(|(a, b)| self.sign_change(a, b))
+    }
+
+    /// The monotone pieces of `[lo, hi]`: its ends and the critical points inside, ascending.
+    fn pieces(&self, lo: f64, hi: f64) -> impl Iterator<Item = (f64, f64)> {
+        let mut knots = [lo, hi, hi, hi];
+        let mut n = 1;
+        for t in self.critical_points().into_iter().flatten() {
+            if lo < t && t < hi {
+                knots[n] = t;
+                n += 1;
+            }
+        }
+        knots[n] = hi;
+        (0..n).map(move |i| (knots[i], knots[i + 1]))
     }
 
     /// Roots of the derivative `c1 + 2 c2 t + 3 c3 t²`, ascending.
-    fn critical_points(&self) -> Vec<f64> {
-        let mut r = quadratic_roots(self.c[1], 2.0 * self.c[2], 3.0 * self.c[3]);
-        r.sort_by(f64::total_cmp);
-        r
+    fn critical_points(&self) -> [Option<f64>; 2] {
+        match quadratic_roots(self.c[1], 2.0 * self.c[2], 3.0 * self.c[3]) {
+            [Some(a), Some(b)] if b < a => [Some(b), Some(a)],
+            r => r,
+        }
     }
 
-    /// The sign change in `(lo, hi]` of a monotone piece, if any (also a zero exactly at `hi`
+    /// Whether a monotone piece changes sign in `(lo, hi]` (also a zero exactly at `hi`
     /// where the cubic only touches 0: harmless, the meeting test decides).
-    fn bisect(&self, mut lo: f64, mut hi: f64) -> Option<f64> {
+    fn sign_change(&self, lo: f64, hi: f64) -> bool {
         let (f_lo, f_hi) = (self.at(lo), self.at(hi));
-        if f_lo == 0.0 || f_lo.signum() == f_hi.signum() && f_hi != 0.0 {
+        f_lo != 0.0 && (f_lo.signum() != f_hi.signum() || f_hi == 0.0)
+    }
+
+    /// The sign change in `(lo, hi]` of a monotone piece, if any.
+    fn bisect(&self, mut lo: f64, mut hi: f64) -> Option<f64> {
+        if !self.sign_change(lo, hi) {
             return None;
         }
+        let f_lo = self.at(lo);
         for _ in 0..BISECTION_STEPS {
             let mid = 0.5 * (lo + hi);
             if self.at(mid).signum() == f_lo.signum() && self.at(mid) != 0.0 {
@@ -420,7 +439,7 @@ mod tests {
         let three = Coplanarity {
             c: [-0.09, 0.73, -1.6, 1.0],
         };
-        let roots = three.roots(0.0, 1.0);
+        let roots: Vec<f64> = three.roots(0.0, 1.0).collect();
         assert_eq!(roots.len(), 3, "{roots:?}");
         for (r, want) in roots.iter().zip([0.2, 0.5, 0.9]) {
             assert!((r - want).abs() < 1e-12, "{roots:?}");
@@ -429,8 +448,11 @@ mod tests {
         let touch = Coplanarity {
             c: [-0.18, 1.29, -2.6, 1.0],
         };
-        assert!(touch.roots(0.0, 1.0).iter().all(|r| (r - 0.3).abs() < 1e-6));
-        assert!(touch.roots(0.0, 1.0).len() <= 1);
+        let roots: Vec<f64> = touch.roots(0.0, 1.0).collect();
+        assert!(roots.iter().all(|r| (r - 0.3).abs() < 1e-6));
+        assert!(roots.len() <= 1);
+        assert!(three.changes_sign(0.0, 1.0));
+        assert_eq!(touch.changes_sign(0.0, 1.0), !roots.is_empty());
     }
 
     /// A bulge that stays short of the other part, or within the tolerance past it, and a
