@@ -11,8 +11,8 @@ use std::time::Instant;
 use contact_skin::mesh::operators::{mean_edge_length, vertex_normals, NormalWeighting};
 use contact_skin::mesh::signed_volume;
 use contact_skin::report::metrics::{
-    closest_point_on_triangle, hausdorff, inverted_faces, non_finite, penetrating_count,
-    point_triangle_distance, residual_penetration, residual_penetration_bodies,
+    closest_point_on_triangle, hausdorff, inverted_faces, non_finite, penetrating_among,
+    penetrating_count, point_triangle_distance, residual_penetration, residual_penetration_bodies,
     second_difference_ratio, solid_angle, surface_distance, turned_faces, volume_error,
     winding_number, zone_distance, Body, InvertedFaces, Penetration, TurnedFaces, WindingNumber,
 };
@@ -432,6 +432,22 @@ fn overlapping_spheres_flag_exactly_the_vertices_inside_the_other_sphere() {
         fallback
     );
     assert_eq!(penetrating_count(&a.0, &a.1, &na, h), 0, "one sphere alone");
+    // Restricted to some vertices, on a tree of either accuracy (the further sweeps' form,
+    // with the folds' β = 1.5): the flagged vertices among them, and all of them among all.
+    let even: Vec<bool> = (0..scene.0.len()).map(|v| v % 2 == 0).collect();
+    let flagged_even: Vec<u32> = pen.flagged.iter().copied().filter(|v| v % 2 == 0).collect();
+    assert!(!flagged_even.is_empty() && flagged_even.len() < pen.vertices);
+    for beta in [2.0, 1.5] {
+        let tree = WindingNumber::with_beta(&scene.0, &scene.1, beta);
+        let among = |flags: &[bool]| penetrating_among(&tree, &scene.0, &scene.1, &n, h, flags);
+        assert_eq!(among(&even), flagged_even, "beta {beta}");
+        assert_eq!(
+            among(&vec![true; scene.0.len()]),
+            pen.flagged,
+            "beta {beta}"
+        );
+        assert!(among(&[]).is_empty(), "no vertex asked");
+    }
 }
 
 #[test]

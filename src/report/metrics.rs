@@ -877,6 +877,44 @@ pub fn penetrating_count(
         .len()
 }
 
+/// The vertices flagged in `among` (one flag per vertex; the others are not tested) that are
+/// penetrating by [`penetrating_count`]'s test, queried on `winding`, a tree of the surface
+/// at `positions` (any β: [`WindingNumber::with_beta`]), ascending. For a caller that keeps a
+/// tree and can act on some vertices only (the self-contact pass's further sweeps).
+pub fn penetrating_among(
+    winding: &WindingNumber,
+    positions: &[Point3<f64>],
+    triangles: &[[u32; 3]],
+    normals: &[Vector3<f64>],
+    h: f64,
+    among: &[bool],
+) -> Vec<u32> {
+    let h = given_or_mean_edge(h, positions, triangles, None);
+    let (mut evaluated, _) = surface_vertices(positions, triangles, normals);
+    evaluated.retain(|(v, _)| among.get(*v as usize).copied().unwrap_or(false));
+    inside_when_nudged(winding, positions, &evaluated, h)
+        .iter()
+        .map(|(v, _)| *v)
+        .collect()
+}
+
+/// `h` when finite and positive, else the mean edge length of the `valid` faces (computed when
+/// not given).
+fn given_or_mean_edge(
+    h: f64,
+    positions: &[Point3<f64>],
+    triangles: &[[u32; 3]],
+    valid: Option<&[bool]>,
+) -> f64 {
+    if h.is_finite() && h > 0.0 {
+        return h;
+    }
+    match valid {
+        Some(valid) => valid_mean_edge_length(positions, triangles, valid),
+        None => valid_mean_edge_length(positions, triangles, &valid_faces(positions, triangles)),
+    }
+}
+
 /// Per face: all its corners in range and finite.
 fn valid_faces(positions: &[Point3<f64>], triangles: &[[u32; 3]]) -> Vec<bool> {
     triangles
@@ -903,11 +941,7 @@ fn flag_penetrating(
     h: f64,
     valid: &[bool],
 ) -> Flags {
-    let h = if h.is_finite() && h > 0.0 {
-        h
-    } else {
-        valid_mean_edge_length(positions, triangles, valid)
-    };
+    let h = given_or_mean_edge(h, positions, triangles, Some(valid));
     let (evaluated, skipped) = surface_vertices(positions, triangles, normals);
     let winding = WindingNumber::new(positions, triangles);
     let flagged = inside_when_nudged(&winding, positions, &evaluated, h);

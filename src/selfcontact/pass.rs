@@ -8,16 +8,17 @@ use super::direction::{BoneAxes, DirectionSource, Meeting};
 use super::fold::{
     resolve_detected_in, FoldError, FoldInput, FoldOutput, FoldParams, FoldPre, FoldTimings,
 };
-use super::regions::{derive_pairs_reporting, RegionOptions};
+use super::regions::{derive_pairs_reporting, PairRegions, RegionOptions};
 use super::turn_guard::TurnReference;
 use super::SelfContactError;
 use crate::intersect::{FaceSets, IntersectError, MeshIndex, PosedMesh, TriangleBvh};
 use crate::mesh::operators::{mean_edge_length, vertex_normals, NormalWeighting};
 use crate::mesh::WeldedMesh;
-use crate::report::metrics::{penetrating_count, WindingNumber};
+use crate::report::metrics::{penetrating_among, WindingNumber};
 use crate::rig::{Pose, Rig};
 use crate::skinning::{cofactor, unit_or_zero};
 use nalgebra::{Matrix3, Point3, Vector3};
+use std::borrow::Cow;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -212,22 +213,26 @@ impl SelfContactPass {
     }
 
     /// Allows sweeps beyond [`SelfContactPass::with_passes`]'s, up to `max_passes` in all
-    /// (default: none beyond), while the bodies the frame's folds moved keep penetrating
-    /// vertices by `MEASURING.md`'s test (the winding number at `p - 0.05 h n` at least 1.5,
-    /// `h` the body's mean rest edge length) and the last further sweep left fewer than were
-    /// left before it (what no fold reaches, an arm against the torso, does not cost the
-    /// remaining sweeps). Where the mapping direction is not square to the contact (a direction 3° off
-    /// the bending capsule's skeleton's leaves 82 penetrating vertices over 31 frames after 2
-    /// sweeps, 2 after 3), on CoR or DQS input, or where a neighbouring joint's fold pushed
-    /// back in, each sweep resolves part of what the last left. Measured with 2 sweeps then up
-    /// to [`SUGGESTED_MAX_FOLD_PASSES`] (`pose --metrics`, against exactly 2; penetrating
-    /// vertices summed over the frames): DQS capsule 21 → 8 (31 frames), 64 → 35 (76); CoR
-    /// 23 → 12, 91 → 46; CesiumMan 58 → 48 (21 frames), 186 → 147 (61); Fox's walk 64 → 48;
-    /// `finger_long` at 61 frames 1 → 0; frames clear after 2 sweeps unchanged. The cost is
-    /// the test, a winding-number tree of the body built and queried at every vertex, and the
-    /// sweeps (the pass's median frame, one thread: finger 63-71 → 90-92 ms with no sweep
-    /// added, CoR capsule 30-34 → 61-63 ms, CesiumMan 12 → 43 ms), hence not the default.
-    /// Values below the sweep count are raised to it.
+    /// (default: none beyond), while the shared regions of the folds that moved this frame
+    /// keep penetrating vertices by `MEASURING.md`'s test (the winding number at `p - 0.05 h n`
+    /// at least 1.5, `h` the body's mean rest edge length; queried on the body's tree that the
+    /// folds keep, refit to the body) and the last further sweep left fewer than were left
+    /// before it. A further sweep runs only the folds whose working regions hold one of those
+    /// vertices: what no fold reaches (an arm against the torso) costs one test. Where the
+    /// mapping direction is not square to the contact (a direction 3° off the bending
+    /// capsule's skeleton's leaves 82 penetrating vertices over 31 frames after 2 sweeps, 2
+    /// after 3), on CoR or DQS input, or where a neighbouring joint's fold pushed back in,
+    /// each sweep resolves part of what the last left. Measured with 2 sweeps then up to
+    /// [`SUGGESTED_MAX_FOLD_PASSES`] (`pose --metrics`, bulge guard on, against exactly 2;
+    /// penetrating vertices summed over 31 frames): DQS capsule 17 → 9, CoR 19 → 10; the
+    /// finger with DQS 321 → 65, with CoR 366 → 45; Fox over 41 frames: run 79 → 69, walk 53
+    /// → 40; CesiumMan 21 → 21 (its arms against its torso); frames clear after 2 sweeps
+    /// unchanged; temporal ratios within 5 %. Cost (one thread, alternated runs, medians of
+    /// three, whole runs): finger 2.04 → 2.19 s (no further sweep needed: the test alone),
+    /// `finger_long` 2.09 → 2.18 s, CesiumMan (21 frames) 0.69 → 0.82 s, CoR capsule 1.33 →
+    /// 1.68 s, the finger with DQS 2.15 → 3.70 s. Testing every vertex of the moved bodies on
+    /// a tree built for the test, and sweeping every fold again, took 2.49, 2.75, 1.02, 2.18
+    /// and 4.65 s (the same counts). Values below the sweep count are raised to it.
     pub fn with_max_passes(mut self, max_passes: usize) -> Self {
         self.max_passes = max_passes.max(self.passes);
         self
@@ -326,18 +331,25 @@ impl SelfContactPass {
         // guard's reference.
         let mut frame_input = None;
         let mut bodies = PosedBodies::new(positions);
-        let mut moved = vec![false; self.triangles.len()];
+        // Per body: the vertices of the shared regions of the folds that moved this frame
+        // (empty until one does), where further sweeps act.
+        let mut reach: Vec<Vec<bool>> = vec![Vec::new(); self.triangles.len()];
         let mut left: Option<usize> = None;
+        // Per fold, whether it runs in this sweep: all in the first sweeps, in further ones
+        // those whose working regions hold a penetrating vertex.
+        let mut active = vec![true; self.folds.len()];
         for sweep in 1..=self.max_passes {
             let mut changed = false;
-            for fold in &self.folds {
+            for (fold, _) in self.folds.iter().zip(&active).filter(|(_, &a)| a) {
                 let frame = Frame {
                     rig,
                     pose,
                     bodies: &mut bodies,
                 };
                 let moved_now = self.sweep_fold(fold, frame, &mut frame_input, &mut out)?;
-                moved[fold.body] |= moved_now;
+                if moved_now && self.max_passes > self.passes {
+                    add_shared_region(&mut reach[fold.body], &fold.pre.regions);
+                }
                 changed |= moved_now;
             }
             out.sweeps = sweep;
@@ -348,25 +360,38 @@ impl SelfContactPass {
             // Past the sweep count, another sweep only while penetrating vertices are left
             // and the last sweep left fewer than the one before.
             if sweep >= self.passes {
-                let now = self.penetrating(&bodies, &moved);
+                let flagged = self.penetrating(&mut bodies, &reach);
+                let now = flagged.iter().map(Vec::len).sum();
                 if now == 0 || left.is_some_and(|before| now >= before) {
                     break;
                 }
                 left = Some(now);
+                for (fold, a) in self.folds.iter().zip(&mut active) {
+                    let regions = &fold.pre.regions;
+                    *a = flagged[fold.body]
+                        .iter()
+                        .any(|&v| regions.w1[v as usize] || regions.w2[v as usize]);
+                }
             }
         }
         Ok(out)
     }
 
-    /// Penetrating vertices of the bodies the frame's folds `moved` (see
-    /// [`SelfContactPass::with_max_passes`]).
-    fn penetrating(&self, bodies: &PosedBodies, moved: &[bool]) -> usize {
-        let count = |b: usize| {
-            let (p, t) = (bodies.positions(b), &self.triangles[b]);
-            let normals = vertex_normals(p, t, NormalWeighting::Area);
-            penetrating_count(p, t, &normals, self.rest_edge[b])
-        };
-        (0..moved.len()).filter(|&b| moved[b]).map(count).sum()
+    /// Per body, its penetrating vertices among those its folds can `reach` (the shared
+    /// regions of the folds that moved this frame; see [`SelfContactPass::with_max_passes`]),
+    /// queried on the body's tree that the folds keep, refit to the body's positions.
+    fn penetrating(&self, bodies: &mut PosedBodies, reach: &[Vec<bool>]) -> Vec<Vec<u32>> {
+        (0..reach.len())
+            .map(|b| {
+                if reach[b].is_empty() {
+                    return Vec::new();
+                }
+                let t = &self.triangles[b];
+                let (p, tree) = bodies.refit_winding(b, t);
+                let normals = vertex_normals(p, t, NormalWeighting::Area);
+                penetrating_among(&tree, p, t, &normals, self.rest_edge[b], &reach[b])
+            })
+            .collect()
     }
 
     /// `d̂_12` of `fold` at `pose` from its [`DirectionSource`]; the parts meet at the
@@ -501,6 +526,18 @@ struct Frame<'f, 'p> {
 /// Also each body's winding-number tree for the folds' inside-twice tests, copied from the
 /// rest tree at the body's first fold of the frame and refit by every fold where it moved
 /// ([`resolve_detected_in`]).
+/// Flags the vertices of `regions`' shared region in `reach` (sized on first use).
+fn add_shared_region(reach: &mut Vec<bool>, regions: &PairRegions) {
+    if reach.is_empty() {
+        reach.resize(regions.w1.len(), false);
+    }
+    for &v in &regions.shared {
+        if let Some(r) = reach.get_mut(v as usize) {
+            *r = true;
+        }
+    }
+}
+
 struct PosedBodies<'p> {
     positions: &'p mut [Vec<Point3<f64>>],
     trees: Vec<Option<TriangleBvh>>,
@@ -527,6 +564,25 @@ impl<'p> PosedBodies<'p> {
     ) -> (&[Point3<f64>], &mut WindingNumber) {
         let tree = self.windings[body].get_or_insert_with(rest_tree);
         (&self.positions[body], tree)
+    }
+
+    /// Positions of `body` and its winding-number tree refit to them: the folds' (see
+    /// [`PosedBodies::with_winding`]), else one built on them.
+    fn refit_winding(
+        &mut self,
+        body: usize,
+        triangles: &[[u32; 3]],
+    ) -> (&[Point3<f64>], Cow<'_, WindingNumber>) {
+        let positions = &self.positions[body];
+        let slot = &mut self.windings[body];
+        let refit = slot
+            .as_mut()
+            .is_some_and(|tree| tree.refit_changed(positions, triangles));
+        let tree = match slot {
+            Some(tree) if refit => Cow::Borrowed(&*tree),
+            _ => Cow::Owned(WindingNumber::new(positions, triangles)),
+        };
+        (positions, tree)
     }
 
     /// Every body's positions.
