@@ -20,8 +20,8 @@
 //! direction = [0.0, 1.0, 0.0]     # or direction_keys = [[t, x, y, z], ...]
 //! [self_contact]                  # optional: joints folding into themselves
 //! enabled = true
-//! passes = 2                      # sweeps over the folds per frame (exactly, when given)
-//! max_passes = 4                  # further sweeps while a body still penetrates (default: none)
+//! passes = 2                      # sweeps over the folds per frame (exactly, when given alone)
+//! max_passes = 4                  # up to this many while a fold still penetrates (default 4)
 //! threshold = 0.05                # RegionOptions::threshold
 //! grow_rings = 2
 //! stiffness = 0.5                 # k̄ of the parent side, in [0, 1]
@@ -53,7 +53,7 @@ use crate::mesh::{surface_size, WeldedMesh};
 use crate::pass::{DirectionTrack, ObjectParams, PairOverride, DEFAULT_PASSES};
 use crate::rig::{Confinement, Rig};
 use crate::selfcontact::fold::FoldParams;
-use crate::selfcontact::pass::DEFAULT_FOLD_PASSES;
+use crate::selfcontact::pass::{DEFAULT_FOLD_PASSES, DEFAULT_MAX_FOLD_PASSES};
 use crate::selfcontact::DirectionSource;
 use crate::selfcontact::{derive_pairs, RegionOptions, SelfContactError};
 use nalgebra::Vector3;
@@ -459,8 +459,11 @@ pub struct SelfContactSpec {
     /// Sweeps over the folds per frame
     /// ([`crate::selfcontact::pass::SelfContactPass::with_passes`]).
     pub passes: Option<usize>,
-    /// Largest number of sweeps, the ones past `passes` run only while a body still penetrates
-    /// ([`crate::selfcontact::pass::SelfContactPass::with_max_passes`]; default `passes`).
+    /// Largest number of sweeps, the ones past `passes` run only while the folds' shared
+    /// regions still hold penetrating vertices
+    /// ([`crate::selfcontact::pass::SelfContactPass::with_max_passes`]; default
+    /// [`crate::selfcontact::pass::DEFAULT_MAX_FOLD_PASSES`], or `passes` when `passes` is
+    /// given).
     pub max_passes: Option<usize>,
     /// [`RegionOptions::threshold`]: weight above which a vertex belongs to a working region.
     pub threshold: Option<f64>,
@@ -1285,11 +1288,15 @@ impl ContactConfig {
             params.deform.extent = extent;
             params.joint_extent = None;
         }
-        // `max_passes` alone bounds the default count too.
+        // `max_passes` alone bounds the default count too; `passes` alone is exact.
         let passes = spec
             .passes
             .unwrap_or(DEFAULT_FOLD_PASSES.min(spec.max_passes.unwrap_or(usize::MAX)));
-        let max_passes = spec.max_passes.unwrap_or(passes);
+        let max_passes = match (spec.passes, spec.max_passes) {
+            (_, Some(max)) => max,
+            (Some(_), None) => passes,
+            (None, None) => DEFAULT_MAX_FOLD_PASSES,
+        };
         let mut directions = Vec::with_capacity(derived.len());
         let mut pair_params = Vec::new();
         for (j, p) in spec.pairs.iter().enumerate() {

@@ -644,7 +644,7 @@ fn non_finite_attribute_values_are_refused() {
 
 use contact_skin::config::{SelfContactSettings, SelfDirection, SelfPairSpec};
 use contact_skin::selfcontact::fold::FoldParams;
-use contact_skin::selfcontact::pass::DEFAULT_FOLD_PASSES;
+use contact_skin::selfcontact::pass::{DEFAULT_FOLD_PASSES, DEFAULT_MAX_FOLD_PASSES};
 use contact_skin::selfcontact::DirectionSource;
 use contact_skin::selfcontact::RegionOptions;
 
@@ -748,13 +748,18 @@ fn the_self_contact_table_parses_and_resolves() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// `passes` is the sweep count (default 2); `max_passes` allows sweeps past it while a body
-/// still penetrates (default none), and alone bounds both; it cannot be below `passes`.
+/// `passes` is the sweep count (default 2); `max_passes` allows sweeps past it while a fold
+/// still penetrates (default 4, none beyond a `passes` given alone), and alone bounds both; it
+/// cannot be below `passes`.
 #[test]
 fn the_sweeps_are_a_count_and_a_bound() {
     let dir = mouth_dir("sweeps");
     for (text, passes, max) in [
-        ("[self_contact]\n", DEFAULT_FOLD_PASSES, DEFAULT_FOLD_PASSES),
+        (
+            "[self_contact]\n",
+            DEFAULT_FOLD_PASSES,
+            DEFAULT_MAX_FOLD_PASSES,
+        ),
         ("[self_contact]\npasses = 3\n", 3, 3),
         ("[self_contact]\nmax_passes = 3\n", DEFAULT_FOLD_PASSES, 3),
         ("[self_contact]\nmax_passes = 1\n", 1, 1),
@@ -858,7 +863,7 @@ fn without_a_self_contact_table_the_pass_defaults_apply() {
         directions: Vec::new(),
         pair_params: Vec::new(),
         passes: DEFAULT_FOLD_PASSES,
-        max_passes: DEFAULT_FOLD_PASSES,
+        max_passes: DEFAULT_MAX_FOLD_PASSES,
     };
     // Without a table the pass is off (opt-in while experimental); an empty table turns it
     // on with the defaults.

@@ -116,7 +116,8 @@ struct SelfContactInfo {
     enabled: bool,
     /// Sweeps over the folds per frame.
     passes: usize,
-    /// Largest number of sweeps, those past `passes` while a body still penetrates.
+    /// Largest number of sweeps, those past `passes` while a fold's shared region still
+    /// penetrates.
     max_passes: usize,
     /// The configuration has a `[self_contact]` table (else: the pass defaults).
     configured: bool,
@@ -346,7 +347,7 @@ fn print_self_contact(s: &SelfContactInfo) {
         },
         s.passes,
         if s.max_passes > s.passes {
-            format!(" (up to {} while a body still penetrates)", s.max_passes)
+            format!(" (up to {} while a fold still penetrates)", s.max_passes)
         } else {
             String::new()
         },

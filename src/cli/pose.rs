@@ -159,7 +159,7 @@ struct Summary {
     /// part of the fold, summed over the folds and frames.
     bulges_guarded: usize,
     /// The most sweeps over the folds a frame took (`[self_contact] passes`, and more up to
-    /// `max_passes` while a body still penetrates); 0 without the pass.
+    /// `max_passes` while a fold's shared region still penetrates); 0 without the pass.
     sweeps_max: usize,
     /// Median time of the self-contact pass per frame (ms), over all frames.
     self_contact_ms: Option<f64>,

@@ -99,9 +99,9 @@ pub struct SelfContactPass {
 /// Default number of sweeps over the folds per frame (see [`SelfContactPass::with_passes`]).
 pub const DEFAULT_FOLD_PASSES: usize = 2;
 
-/// A bound for [`SelfContactPass::with_max_passes`] that its measurements used (not the
-/// default: by default a frame gets exactly [`DEFAULT_FOLD_PASSES`] sweeps).
-pub const SUGGESTED_MAX_FOLD_PASSES: usize = 4;
+/// Default bound of [`SelfContactPass::with_max_passes`]: after [`DEFAULT_FOLD_PASSES`] sweeps,
+/// up to two further ones where the folds' shared regions still hold penetrating vertices.
+pub const DEFAULT_MAX_FOLD_PASSES: usize = 4;
 
 /// Why the self-contact pass failed.
 #[derive(Debug, thiserror::Error)]
@@ -190,7 +190,7 @@ impl SelfContactPass {
                 .map(|(r, w)| mean_edge_length(r, &w.triangles))
                 .collect(),
             passes: DEFAULT_FOLD_PASSES,
-            max_passes: DEFAULT_FOLD_PASSES,
+            max_passes: DEFAULT_MAX_FOLD_PASSES,
             skipped,
         })
     }
@@ -213,7 +213,8 @@ impl SelfContactPass {
     }
 
     /// Allows sweeps beyond [`SelfContactPass::with_passes`]'s, up to `max_passes` in all
-    /// (default: none beyond), while the shared regions of the folds that moved this frame
+    /// (default [`DEFAULT_MAX_FOLD_PASSES`]; none beyond after [`SelfContactPass::with_passes`]
+    /// until this is called), while the shared regions of the folds that moved this frame
     /// keep penetrating vertices by `MEASURING.md`'s test (the winding number at `p - 0.05 h n`
     /// at least 1.5, `h` the body's mean rest edge length; queried on the body's tree that the
     /// folds keep, refit to the body) and the last further sweep left fewer than were left
@@ -223,7 +224,7 @@ impl SelfContactPass {
     /// capsule's skeleton's leaves 82 penetrating vertices over 31 frames after 2 sweeps, 2
     /// after 3), on CoR or DQS input, or where a neighbouring joint's fold pushed back in,
     /// each sweep resolves part of what the last left. Measured with 2 sweeps then up to
-    /// [`SUGGESTED_MAX_FOLD_PASSES`] (`pose --metrics`, bulge guard on, against exactly 2;
+    /// [`DEFAULT_MAX_FOLD_PASSES`] (`pose --metrics`, bulge guard on, against exactly 2;
     /// penetrating vertices summed over 31 frames): DQS capsule 17 → 9, CoR 19 → 10; the
     /// finger with DQS 321 → 65, with CoR 366 → 45; Fox over 41 frames: run 79 → 69, walk 53
     /// → 40; CesiumMan 21 → 21 (its arms against its torso); frames clear after 2 sweeps
