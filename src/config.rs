@@ -20,7 +20,7 @@
 //! direction = [0.0, 1.0, 0.0]     # or direction_keys = [[t, x, y, z], ...]
 //! [self_contact]                  # optional: joints folding into themselves
 //! enabled = true
-//! passes = 2                      # sweeps over the folds per frame (exactly, when given alone)
+//! passes = 2                      # sweeps per frame (exactly, when given without max_passes)
 //! max_passes = 4                  # up to this many while a fold still penetrates (default 4)
 //! threshold = 0.05                # RegionOptions::threshold
 //! grow_rings = 2
@@ -457,7 +457,8 @@ pub struct SelfContactSpec {
     /// Run the self-contact pass (default `true`).
     pub enabled: Option<bool>,
     /// Sweeps over the folds per frame
-    /// ([`crate::selfcontact::pass::SelfContactPass::with_passes`]).
+    /// ([`crate::selfcontact::pass::SelfContactPass::with_passes`]): exactly these when
+    /// `max_passes` is not given (`passes = 2` alone turns the default further sweeps off).
     pub passes: Option<usize>,
     /// Largest number of sweeps, the ones past `passes` run only while the folds' shared
     /// regions still hold penetrating vertices

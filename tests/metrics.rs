@@ -423,8 +423,8 @@ fn overlapping_spheres_flag_exactly_the_vertices_inside_the_other_sphere() {
     let (na, nb) = (normals(&a), normals(&b));
     let bodies: [Body; 2] = [(&a.0, &a.1, &na), (&b.0, &b.1, &nb)];
     assert_eq!(residual_penetration_bodies(&bodies, h), pen);
-    // The count without depths (the self-contact pass's further sweeps) flags the same
-    // vertices, with `h` given or from the scene's own edges.
+    // The count without depths flags the same vertices, with `h` given or from the scene's
+    // own edges.
     assert_eq!(penetrating_count(&scene.0, &scene.1, &n, h), pen.vertices);
     let fallback = residual_penetration(&scene.0, &scene.1, &n, f64::NAN).vertices;
     assert_eq!(

@@ -209,11 +209,9 @@ enum Meeting {
 /// The first `t ∈ (0, 1]` at which the four moving points are coplanar with the corner
 /// inside the face, or the two edges crossing.
 fn first_meeting(points: &[Path; 4], kind: Meeting) -> Option<f64> {
-    let cubic = Coplanarity::of(points);
-    let first = cubic
+    Coplanarity::of(points)
         .roots(0.0, 1.0)
-        .find(|&t| meets(&points.map(|p| p.at(t)), kind));
-    first
+        .find(|&t| meets(&points.map(|p| p.at(t)), kind))
 }
 
 /// Whether four coplanar points meet: the corner in the face (barycentric coordinates in the
@@ -282,6 +280,7 @@ impl Coplanarity {
 
     /// The monotone pieces of `[lo, hi]`: its ends and the critical points inside, ascending.
     fn pieces(&self, lo: f64, hi: f64) -> impl Iterator<Item = (f64, f64)> {
+        // `hi` after the inner knots: every slot past them already holds it.
         let mut knots = [lo, hi, hi, hi];
         let mut n = 1;
         for t in self.critical_points().into_iter().flatten() {
@@ -290,11 +289,11 @@ impl Coplanarity {
                 n += 1;
             }
         }
-        knots[n] = hi;
         (0..n).map(move |i| (knots[i], knots[i + 1]))
     }
 
-    /// Roots of the derivative `c1 + 2 c2 t + 3 c3 t²`, ascending.
+    /// Roots of the derivative `c1 + 2 c2 t + 3 c3 t²`, ascending (NaN roots, which
+    /// [`Coplanarity::pieces`] leaves out, in either order).
     fn critical_points(&self) -> [Option<f64>; 2] {
         match quadratic_roots(self.c[1], 2.0 * self.c[2], 3.0 * self.c[3]) {
             [Some(a), Some(b)] if b < a => [Some(b), Some(a)],
@@ -314,10 +313,11 @@ impl Coplanarity {
         if !self.sign_change(lo, hi) {
             return None;
         }
-        let f_lo = self.at(lo);
+        let sign = self.at(lo).signum();
         for _ in 0..BISECTION_STEPS {
             let mid = 0.5 * (lo + hi);
-            if self.at(mid).signum() == f_lo.signum() && self.at(mid) != 0.0 {
+            let f = self.at(mid);
+            if f.signum() == sign && f != 0.0 {
                 lo = mid;
             } else {
                 hi = mid;

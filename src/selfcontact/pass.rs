@@ -218,23 +218,27 @@ impl SelfContactPass {
     /// keep penetrating vertices by `MEASURING.md`'s test (the winding number at `p - 0.05 h n`
     /// at least 1.5, `h` the body's mean rest edge length; queried on the body's tree that the
     /// folds keep, refit to the body) and the last further sweep left fewer than were left
-    /// before it. A further sweep runs only the folds whose working regions hold one of those
-    /// vertices: what no fold reaches (an arm against the torso) costs one test. Where the
+    /// before it (a fold that first moves in a further sweep adds its shared region to the
+    /// vertices counted). A further sweep runs only the folds whose working regions hold one of
+    /// those vertices: what no fold reaches (an arm against the torso) costs one test, and a
+    /// fold left out reports nothing for that sweep ([`SelfPassOutput`]'s counts). Where the
     /// mapping direction is not square to the contact (a direction 3° off the bending
     /// capsule's skeleton's leaves 82 penetrating vertices over 31 frames after 2 sweeps, 2
-    /// after 3), on CoR or DQS input, or where a neighbouring joint's fold pushed back in,
-    /// each sweep resolves part of what the last left. Measured with 2 sweeps then up to
+    /// with the default), on CoR or DQS input, or where a neighbouring joint's fold pushed back
+    /// in, each sweep resolves part of what the last left. Measured with 2 sweeps then up to
     /// [`DEFAULT_MAX_FOLD_PASSES`] (`pose --metrics`, bulge guard on, against exactly 2;
     /// penetrating vertices summed over 31 frames): DQS capsule 17 → 9, CoR 19 → 10; the
     /// finger with DQS 321 → 65, with CoR 366 → 45; Fox over 41 frames: run 79 → 69, walk 53
     /// → 40; CesiumMan 21 → 21 (its arms against its torso); frames clear after 2 sweeps
     /// unchanged; temporal ratios within 5 %, but for CesiumMan over 61 frames (64 → 61
-    /// penetrating; its hip pop at frame 17, where a third sweep takes 6 to 2, 6.29 → 7.22). Cost (one thread, alternated runs, medians of
-    /// three, whole runs): finger 2.04 → 2.19 s (no further sweep needed: the test alone),
-    /// `finger_long` 2.09 → 2.18 s, CesiumMan (21 frames) 0.69 → 0.82 s, CoR capsule 1.33 →
-    /// 1.68 s, the finger with DQS 2.15 → 3.70 s. Testing every vertex of the moved bodies on
-    /// a tree built for the test, and sweeping every fold again, took 2.49, 2.75, 1.02, 2.18
-    /// and 4.65 s (the same counts). Values below the sweep count are raised to it.
+    /// penetrating; its hip pop at frame 17, where a third sweep takes 6 to 2, 6.29 → 7.22).
+    /// Cost (one thread, alternated runs, medians of three, whole runs): finger 2.04 → 2.19 s
+    /// (no further sweep needed: the test alone), `finger_long` 2.09 → 2.18 s, CesiumMan (21
+    /// frames) 0.69 → 0.82 s, CoR capsule 1.33 → 1.68 s, the finger with DQS 2.15 → 3.70 s.
+    /// Testing every vertex of the moved bodies on a tree built for the test, and sweeping
+    /// every fold again, took 2.49, 2.75, 1.02, 2.18 and 4.65 s, with the same outputs on the
+    /// scenes compared (measured, not implied: a fold that touches without a penetrating
+    /// vertex no longer runs again). Values below the sweep count are raised to it.
     pub fn with_max_passes(mut self, max_passes: usize) -> Self {
         self.max_passes = max_passes.max(self.passes);
         self
@@ -338,7 +342,9 @@ impl SelfContactPass {
         let mut reach: Vec<Vec<bool>> = vec![Vec::new(); self.triangles.len()];
         let mut left: Option<usize> = None;
         // Per fold, whether it runs in this sweep: all in the first sweeps, in further ones
-        // those whose working regions hold a penetrating vertex.
+        // those whose working regions hold a penetrating vertex. A fold that still touches
+        // without one is left as it is (before 2026-12-03 every fold ran again: the same
+        // outputs to the byte on the 13 scenes compared, a choice rather than an identity).
         let mut active = vec![true; self.folds.len()];
         for sweep in 1..=self.max_passes {
             let mut changed = false;
@@ -368,15 +374,21 @@ impl SelfContactPass {
                     break;
                 }
                 left = Some(now);
-                for (fold, a) in self.folds.iter().zip(&mut active) {
-                    let regions = &fold.pre.regions;
-                    *a = flagged[fold.body]
-                        .iter()
-                        .any(|&v| regions.w1[v as usize] || regions.w2[v as usize]);
-                }
+                active = self.folds_holding(&flagged);
             }
         }
         Ok(out)
+    }
+
+    /// Per fold, whether its working regions hold one of its body's `flagged` vertices.
+    fn folds_holding(&self, flagged: &[Vec<u32>]) -> Vec<bool> {
+        let holds = |fold: &Fold| {
+            let regions = &fold.pre.regions;
+            flagged[fold.body]
+                .iter()
+                .any(|&v| regions.w1[v as usize] || regions.w2[v as usize])
+        };
+        self.folds.iter().map(holds).collect()
     }
 
     /// Per body, its penetrating vertices among those its folds can `reach` (the shared
@@ -520,14 +532,6 @@ struct Frame<'f, 'p> {
     bodies: &'f mut PosedBodies<'p>,
 }
 
-/// Every body's positions in one frame, updated fold after fold, and each body's detection
-/// tree refit at them: one refit per body shared by the detections of its folds until a fold
-/// moves it. The positions change only through [`PosedBodies::replace`], which drops the
-/// body's tree, so a tree is never queried at positions it was not refit at.
-///
-/// Also each body's winding-number tree for the folds' inside-twice tests, copied from the
-/// rest tree at the body's first fold of the frame and refit by every fold where it moved
-/// ([`resolve_detected_in`]).
 /// Flags the vertices of `regions`' shared region in `reach` (sized on first use).
 fn add_shared_region(reach: &mut Vec<bool>, regions: &PairRegions) {
     if reach.is_empty() {
@@ -540,6 +544,14 @@ fn add_shared_region(reach: &mut Vec<bool>, regions: &PairRegions) {
     }
 }
 
+/// Every body's positions in one frame, updated fold after fold, and each body's detection
+/// tree refit at them: one refit per body shared by the detections of its folds until a fold
+/// moves it. The positions change only through [`PosedBodies::replace`], which drops the
+/// body's tree, so a tree is never queried at positions it was not refit at.
+///
+/// Also each body's winding-number tree for the folds' inside-twice tests, copied from the
+/// rest tree at the body's first fold of the frame and refit by every fold where it moved
+/// ([`resolve_detected_in`]).
 struct PosedBodies<'p> {
     positions: &'p mut [Vec<Point3<f64>>],
     trees: Vec<Option<TriangleBvh>>,
@@ -568,8 +580,9 @@ impl<'p> PosedBodies<'p> {
         (&self.positions[body], tree)
     }
 
-    /// Positions of `body` and its winding-number tree refit to them: the folds' (see
-    /// [`PosedBodies::with_winding`]), else one built on them.
+    /// Positions of `body` and its winding-number tree refit to them: the folds' (β = 1.5, see
+    /// [`PosedBodies::with_winding`]), else (no fold resolved on the body, or a non-finite
+    /// position that the refit refuses) one built on them with the metric's β.
     fn refit_winding(
         &mut self,
         body: usize,
