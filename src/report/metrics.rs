@@ -889,7 +889,7 @@ pub fn penetrating_among(
     h: f64,
     among: &[bool],
 ) -> Vec<u32> {
-    let h = given_or_mean_edge(h, positions, triangles, None);
+    let h = given_or_mean_edge(h, positions, triangles, &valid_faces(positions, triangles));
     let (mut evaluated, _) = surface_vertices(positions, triangles, normals);
     evaluated.retain(|(v, _)| among.get(*v as usize).copied().unwrap_or(false));
     inside_when_nudged(winding, positions, &evaluated, h)
@@ -898,20 +898,17 @@ pub fn penetrating_among(
         .collect()
 }
 
-/// `h` when finite and positive, else the mean edge length of the `valid` faces (computed when
-/// not given).
+/// `h` when finite and positive, else the mean edge length of the `valid` faces.
 fn given_or_mean_edge(
     h: f64,
     positions: &[Point3<f64>],
     triangles: &[[u32; 3]],
-    valid: Option<&[bool]>,
+    valid: &[bool],
 ) -> f64 {
     if h.is_finite() && h > 0.0 {
-        return h;
-    }
-    match valid {
-        Some(valid) => valid_mean_edge_length(positions, triangles, valid),
-        None => valid_mean_edge_length(positions, triangles, &valid_faces(positions, triangles)),
+        h
+    } else {
+        valid_mean_edge_length(positions, triangles, valid)
     }
 }
 
@@ -941,7 +938,7 @@ fn flag_penetrating(
     h: f64,
     valid: &[bool],
 ) -> Flags {
-    let h = given_or_mean_edge(h, positions, triangles, Some(valid));
+    let h = given_or_mean_edge(h, positions, triangles, valid);
     let (evaluated, skipped) = surface_vertices(positions, triangles, normals);
     let winding = WindingNumber::new(positions, triangles);
     let flagged = inside_when_nudged(&winding, positions, &evaluated, h);
