@@ -943,6 +943,7 @@ fn self_contact_resolves_the_bending_capsule_and_does_not_depend_on_threads() {
     // The default sweeps: 2 in a frame with a fold, and no further one where the shared
     // region no longer penetrates (the LBS capsule after two).
     assert_eq!(summary["sweeps_max"].as_u64(), Some(2));
+    assert_eq!(summary["sweeps_planned"].as_u64(), Some(2));
     for d in [&a, &b, &plain, &no_self] {
         let _ = std::fs::remove_dir_all(d);
     }
@@ -969,6 +970,22 @@ fn self_contact_follows_its_configuration() {
             "{name}"
         );
     }
+    // One sweep planned and one further allowed: one sweep leaves the deepest frames
+    // touching (within MEASURING.md's nudge), so the further sweep runs, and the text
+    // summary says how many sweeps a frame took against the planned count.
+    std::fs::write(&config, "[self_contact]\npasses = 1\nmax_passes = 2\n").expect("config");
+    let out = pose_frames(&rig_path, &dir.join("one"), "5", &[]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("up to 2 sweeps over the folds in a frame (1 planned"),
+        "{text}"
+    );
+    // One sweep exactly: nothing said about sweeps.
+    std::fs::write(&config, "[self_contact]\npasses = 1\n").expect("config");
+    let out = pose_frames(&rig_path, &dir.join("one"), "5", &["--json"]);
+    let summary: Value = serde_json::from_slice(&out.stdout).expect("summary");
+    assert_eq!(summary["sweeps_max"].as_u64(), Some(1));
+    assert_eq!(summary["sweeps_planned"].as_u64(), Some(1));
     // An unknown pair name is an error naming the field and listing the derived pairs.
     std::fs::write(
         &config,

@@ -286,6 +286,17 @@ impl SelfContactPass {
                 .any(|f| f.params.is_some_and(|p| p.turn_guard))
     }
 
+    /// Sweeps every frame gets ([`SelfContactPass::with_passes`]); frames whose folds still
+    /// penetrate may take more, up to [`SelfContactPass::max_passes`].
+    pub fn passes(&self) -> usize {
+        self.passes
+    }
+
+    /// Most sweeps a frame may take ([`SelfContactPass::with_max_passes`]).
+    pub fn max_passes(&self) -> usize {
+        self.max_passes
+    }
+
     /// Why parent/child pairs were left out (e.g. a shared region without a border toward
     /// one side: no partition of unity), one message each.
     pub fn skipped(&self) -> &[String] {
