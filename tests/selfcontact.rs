@@ -1773,3 +1773,103 @@ fn a_fold_scaled_to_nothing_is_left_alone() {
         assert_eq!(out, shrunk);
     }
 }
+
+/// `a` and `b` as one rig: `b`'s nodes, skins, bodies and first animation's channels after
+/// `a`'s, every index shifted (the two skeletons are two roots; the bodies overlap in space,
+/// which the self-contact pass, one body at a time, does not see).
+fn merged_rig(a: &rig::Rig, b: &rig::Rig) -> rig::Rig {
+    let (nodes, skins) = (a.nodes.len(), a.skins.len());
+    let mut m = a.clone();
+    m.nodes.extend(b.nodes.iter().cloned().map(|mut n| {
+        n.parent = n.parent.map(|p| p + nodes);
+        n.children.iter_mut().for_each(|c| *c += nodes);
+        n
+    }));
+    m.node_order.extend(b.node_order.iter().map(|i| i + nodes));
+    m.skins.extend(b.skins.iter().cloned().map(|mut s| {
+        s.joints.iter_mut().for_each(|j| *j += nodes);
+        s
+    }));
+    m.bodies.extend(b.bodies.iter().cloned().map(|mut body| {
+        body.node += nodes;
+        body.skin += skins;
+        body
+    }));
+    m.extra_attributes
+        .extend(b.extra_attributes.iter().cloned());
+    let (ma, ba) = (&mut m.animations[0], &b.animations[0]);
+    ma.channels.extend(ba.channels.iter().cloned().map(|mut c| {
+        c.node += nodes;
+        c
+    }));
+    ma.start = ma.start.min(ba.start);
+    ma.end = ma.end.max(ba.end);
+    m
+}
+
+/// Two bodies folding in one rig (the bending capsule and the finger, CoR input, where the
+/// further sweeps act on both) give each body what it gets alone: the sweeps, their
+/// further-sweep test and its stopping decision are per body, so a body's result does not
+/// depend on what else the rig holds.
+#[test]
+fn bodies_fold_independently() {
+    let frames = 31;
+    let alone = [
+        load_with("bending_capsule", frames, Method::Cor),
+        load_with("finger", frames, Method::Cor),
+    ];
+    let merged = merged_rig(&alone[0].rig, &alone[1].rig);
+    let pre = contact_skin::frames::Precomputed::new(&merged, Method::Cor);
+    let rest = welded_positions(&merged, &pre, 0.0, None);
+    let both = SelfContactPass::new(
+        &merged,
+        &pre.welded,
+        &rest,
+        &RegionOptions::default(),
+        FoldParams::default(),
+        &[],
+    )
+    .expect("merged pass precomputes");
+    assert_eq!(both.pairs().len(), 4, "{:?}", both.pairs());
+    let passes: Vec<SelfContactPass> = alone.iter().map(|l| self_pass(l, &[])).collect();
+    let times = contact_skin::frames::sample_times(&merged, Some(0), Some(frames)).expect("times");
+    let mut further = [0, 0];
+    for (f, &t) in times.iter().enumerate() {
+        let mut out = welded_positions(&merged, &pre, t, Some(0));
+        let r = both
+            .run(&merged, &merged.pose_at(Some(0), t), &mut out)
+            .expect("merged pass runs");
+        for (b, (l, pass)) in alone.iter().zip(&passes).enumerate() {
+            let mut own = welded_positions(&l.rig, &l.pre, t, Some(0));
+            let input = own.clone();
+            let ro = pass
+                .run(&l.rig, &l.rig.pose_at(Some(0), t), &mut own)
+                .expect("pass runs");
+            further[b] += usize::from(ro.sweeps > 2);
+            assert!(
+                r.sweeps >= ro.sweeps,
+                "frame {f}: {} < {}",
+                r.sweeps,
+                ro.sweeps
+            );
+            if out[b] != own[0] {
+                let moved = out[b].iter().zip(&own[0]).filter(|(p, q)| p != q).count();
+                panic!(
+                    "frame {f}, body {b}: {moved} vertices differ from the body alone \
+                     ({} sweeps together, {} alone; input the same: {})",
+                    r.sweeps,
+                    ro.sweeps,
+                    input[0] == welded_positions(&merged, &pre, t, Some(0))[b]
+                );
+            }
+        }
+    }
+    println!(
+        "frames with further sweeps alone: capsule {}, finger {}",
+        further[0], further[1]
+    );
+    assert!(
+        further.iter().all(|&n| n > 0),
+        "both bodies need further sweeps somewhere: {further:?}"
+    );
+}

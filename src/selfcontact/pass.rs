@@ -219,7 +219,10 @@ impl SelfContactPass {
     /// at least 1.5, `h` the body's mean rest edge length; queried on the body's tree that the
     /// folds keep, refit to the body) and the last further sweep left fewer than were left
     /// before it (a fold that first moves in a further sweep adds its shared region to the
-    /// vertices counted). A further sweep runs only the folds whose working regions hold one of
+    /// vertices counted). Each body is counted and stopped on its own, so that a body gets
+    /// what it gets alone whatever else the rig holds (until 2026-12-03 the counts were summed
+    /// over the bodies: the bending capsule next to the finger, CoR input, took a fourth sweep
+    /// at frame 13 of 31 that it does not take alone). A further sweep runs only the folds whose working regions hold one of
     /// those vertices: what no fold reaches (an arm against the torso) costs one test, and a
     /// fold left out reports nothing for that sweep ([`SelfPassOutput`]'s counts). Where the
     /// mapping direction is not square to the contact (a direction 3° off the bending
@@ -351,7 +354,8 @@ impl SelfContactPass {
         // Per body: the vertices of the shared regions of the folds that moved this frame
         // (empty until one does), where further sweeps act.
         let mut reach: Vec<Vec<bool>> = vec![Vec::new(); self.triangles.len()];
-        let mut left: Option<usize> = None;
+        // Per body, the penetrating vertices the last test found.
+        let mut left: Vec<Option<usize>> = vec![None; self.triangles.len()];
         // Per fold, whether it runs in this sweep: all in the first sweeps, in further ones
         // those whose working regions hold a penetrating vertex. A fold that still touches
         // without one is left as it is (before 2026-12-03 every fold ran again: the same
@@ -376,15 +380,23 @@ impl SelfContactPass {
             if !changed || sweep == self.max_passes {
                 break;
             }
-            // Past the sweep count, another sweep only while penetrating vertices are left
-            // and the last sweep left fewer than the one before.
+            // Past the sweep count, another sweep for a body only while penetrating vertices
+            // are left in it and its last sweep left fewer than the one before: per body, so
+            // that what a body gets does not depend on the others.
             if sweep >= self.passes {
-                let flagged = self.penetrating(&mut bodies, &reach);
-                let now = flagged.iter().map(Vec::len).sum();
-                if now == 0 || left.is_some_and(|before| now >= before) {
+                let mut flagged = self.penetrating(&mut bodies, &reach);
+                for ((flags, left), reach) in flagged.iter_mut().zip(&mut left).zip(&mut reach) {
+                    let now = flags.len();
+                    if now == 0 || left.is_some_and(|before| now >= before) {
+                        // Done: no more tests, and none of its folds runs again.
+                        flags.clear();
+                        reach.clear();
+                    }
+                    *left = Some(now);
+                }
+                if flagged.iter().all(Vec::is_empty) {
                     break;
                 }
-                left = Some(now);
                 active = self.folds_holding(&flagged);
             }
         }
