@@ -323,6 +323,55 @@ impl SelfContactPass {
         pose: &Pose,
         positions: &mut [Vec<Point3<f64>>],
     ) -> Result<SelfPassOutput, SelfPassError> {
+        self.check_frame(rig, pose, positions)?;
+        let mut out = SelfPassOutput::default();
+        // The positions before any fold, copied when the first fold is detected: the turn
+        // guard's reference.
+        let mut frame_input = None;
+        let mut bodies = PosedBodies::new(positions);
+        let mut further = FurtherSweeps::new(self.triangles.len());
+        // Per fold, whether it runs in this sweep: all in the first sweeps, in further ones
+        // those whose working regions hold a penetrating vertex. A fold that still touches
+        // without one is left as it is (before 2026-12-03 every fold ran again: the same
+        // outputs to the byte on the 13 scenes compared, a choice rather than an identity).
+        let mut active = vec![true; self.folds.len()];
+        for sweep in 1..=self.max_passes {
+            let mut changed = false;
+            for (fold, _) in self.folds.iter().zip(&active).filter(|(_, &a)| a) {
+                let frame = Frame {
+                    rig,
+                    pose,
+                    bodies: &mut bodies,
+                };
+                let moved_now = self.sweep_fold(fold, frame, &mut frame_input, &mut out)?;
+                if moved_now && self.max_passes > self.passes {
+                    add_shared_region(&mut further.reach[fold.body], &fold.pre.regions);
+                }
+                changed |= moved_now;
+            }
+            out.sweeps = sweep;
+            // Nothing moved: a further sweep would find the same.
+            if !changed || sweep == self.max_passes {
+                break;
+            }
+            if sweep >= self.passes {
+                match further.next(self, &mut bodies) {
+                    Some(folds) => active = folds,
+                    None => break,
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    /// [`SelfContactPass::run`]'s input matches the rig: one position set per body, each of
+    /// its welded vertex count, and one world matrix per node.
+    fn check_frame(
+        &self,
+        rig: &Rig,
+        pose: &Pose,
+        positions: &[Vec<Point3<f64>>],
+    ) -> Result<(), SelfPassError> {
         if positions.len() != self.triangles.len() {
             return Err(SelfPassError::Mismatch(format!(
                 "{} bodies, {} position sets",
@@ -346,61 +395,7 @@ impl SelfContactPass {
                 )));
             }
         }
-        let mut out = SelfPassOutput::default();
-        // The positions before any fold, copied when the first fold is detected: the turn
-        // guard's reference.
-        let mut frame_input = None;
-        let mut bodies = PosedBodies::new(positions);
-        // Per body: the vertices of the shared regions of the folds that moved this frame
-        // (empty until one does), where further sweeps act.
-        let mut reach: Vec<Vec<bool>> = vec![Vec::new(); self.triangles.len()];
-        // Per body, the penetrating vertices the last test found.
-        let mut left: Vec<Option<usize>> = vec![None; self.triangles.len()];
-        // Per fold, whether it runs in this sweep: all in the first sweeps, in further ones
-        // those whose working regions hold a penetrating vertex. A fold that still touches
-        // without one is left as it is (before 2026-12-03 every fold ran again: the same
-        // outputs to the byte on the 13 scenes compared, a choice rather than an identity).
-        let mut active = vec![true; self.folds.len()];
-        for sweep in 1..=self.max_passes {
-            let mut changed = false;
-            for (fold, _) in self.folds.iter().zip(&active).filter(|(_, &a)| a) {
-                let frame = Frame {
-                    rig,
-                    pose,
-                    bodies: &mut bodies,
-                };
-                let moved_now = self.sweep_fold(fold, frame, &mut frame_input, &mut out)?;
-                if moved_now && self.max_passes > self.passes {
-                    add_shared_region(&mut reach[fold.body], &fold.pre.regions);
-                }
-                changed |= moved_now;
-            }
-            out.sweeps = sweep;
-            // Nothing moved: a further sweep would find the same.
-            if !changed || sweep == self.max_passes {
-                break;
-            }
-            // Past the sweep count, another sweep for a body only while penetrating vertices
-            // are left in it and its last sweep left fewer than the one before: per body, so
-            // that what a body gets does not depend on the others.
-            if sweep >= self.passes {
-                let mut flagged = self.penetrating(&mut bodies, &reach);
-                for ((flags, left), reach) in flagged.iter_mut().zip(&mut left).zip(&mut reach) {
-                    let now = flags.len();
-                    if now == 0 || left.is_some_and(|before| now >= before) {
-                        // Done: no more tests, and none of its folds runs again.
-                        flags.clear();
-                        reach.clear();
-                    }
-                    *left = Some(now);
-                }
-                if flagged.iter().all(Vec::is_empty) {
-                    break;
-                }
-                active = self.folds_holding(&flagged);
-            }
-        }
-        Ok(out)
+        Ok(())
     }
 
     /// Per fold, whether its working regions hold one of its body's `flagged` vertices.
@@ -553,6 +548,43 @@ struct Frame<'f, 'p> {
     rig: &'f Rig,
     pose: &'f Pose,
     bodies: &'f mut PosedBodies<'p>,
+}
+
+/// What decides the further sweeps of a frame ([`SelfContactPass::with_max_passes`]), per body
+/// so that what a body gets does not depend on the others.
+struct FurtherSweeps {
+    /// Per body: the vertices of the shared regions of the folds that moved this frame (empty
+    /// until one does, and again once the body is done), where further sweeps act.
+    reach: Vec<Vec<bool>>,
+    /// Per body, the penetrating vertices the last test found.
+    left: Vec<Option<usize>>,
+}
+
+impl FurtherSweeps {
+    fn new(bodies: usize) -> Self {
+        Self {
+            reach: vec![Vec::new(); bodies],
+            left: vec![None; bodies],
+        }
+    }
+
+    /// After a sweep at or past the sweep count: per fold, whether it runs in a further
+    /// sweep, `None` when no fold does. A body goes on only while penetrating vertices are
+    /// left in its reach and its last sweep left fewer than the one before; a body done is
+    /// neither tested nor swept again.
+    fn next(&mut self, pass: &SelfContactPass, bodies: &mut PosedBodies) -> Option<Vec<bool>> {
+        let mut flagged = pass.penetrating(bodies, &self.reach);
+        let each = flagged.iter_mut().zip(&mut self.left).zip(&mut self.reach);
+        for ((flags, left), reach) in each {
+            let now = flags.len();
+            if now == 0 || left.is_some_and(|before| now >= before) {
+                flags.clear();
+                reach.clear();
+            }
+            *left = Some(now);
+        }
+        (!flagged.iter().all(Vec::is_empty)).then(|| pass.folds_holding(&flagged))
+    }
 }
 
 /// Flags the vertices of `regions`' shared region in `reach` (sized on first use).
