@@ -32,7 +32,7 @@
 //! omega = 2.0
 //! turn_guard = true               # scale the displacement back where a face would turn over
 //! bulge_guard = true              # scale the bulge back where it would enter the other part
-//! free_isolated_crease = false    # true: no sign at isolated crease vertices (lips, LBS)
+//! free_isolated_crease = false    # true: isolated crease vertices stay out of the zones (lips)
 //! direction = "skeleton"          # every pair's default: "skeleton" or "motion"
 //! [[self_contact.pair]]
 //! name = "lips/head-jaw"          # a derived joint pair (`contact-skin info`)

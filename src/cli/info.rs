@@ -397,7 +397,7 @@ fn print_self_contact(s: &SelfContactInfo) {
             String::new()
         };
         let own = if p.free_isolated_crease {
-            format!("{own}, isolated crease vertices free")
+            format!("{own}, isolated crease vertices out of the zones")
         } else {
             own
         };

@@ -165,19 +165,24 @@ pub struct FoldParams {
     /// frames 1.03 → 1.3 s. The guard's checks share the turn guard's volume solves (at most
     /// 4).
     pub bulge_guard: bool,
-    /// Leave `σ` free (harmonic) at the crease vertices that the fold added to a zone (inside
-    /// the other part) at a depth of at most `ε_c` and with no deeper vertex of their zone
-    /// next to them, instead of imposing their zone's sign. Not in the paper; default off.
-    /// Such a vertex joins or leaves its zone from one frame to the next, and its sign set
-    /// `σ` at once from about 0 to ±1 next to it, where the amplitude, faded by `|σ|`, came
-    /// back in one frame: the mouth's corners popped by 0.15-0.3 h (temporal ratio 3.71 at
-    /// 121 frames with the vertical direction, 2.93 at 91 with the skeleton's; with the
-    /// setting 1.02 and 1.00, no penetrating vertex either way). On the LBS capsule, finger
-    /// and `finger_long` the counts stay 0 (the finger's ratio at 91 frames 1.84 → 1.96), on
-    /// CesiumMan 21 → 20; but with DQS and CoR input the same vertices' signs push the buried
-    /// crease walls out: the capsule's penetrating vertices 17 → 23 (DQS) and 19 → 47 (CoR)
-    /// over 31 frames, the finger's 321 → 357 and 366 → 418. For a pair like the lips with
-    /// LBS, not for an articulation squashed into a wall.
+    /// Leave out of the contact zones the crease vertices that the fold would add to a zone
+    /// (inside the other part, [`zones_to_the_crease`]) but that do not connect to it: only
+    /// those next to one of its vertices, or to a crease vertex joining it, join. The isolated
+    /// ones keep the profile's displacement and a harmonic `σ`. Not in the paper; default off.
+    /// Such a vertex joins or leaves its zone from one frame to the next, pinned on `S` and
+    /// given its zone's sign at once: next to a vertex where `σ` was about 0, the amplitude,
+    /// faded by `|σ|`, came back in one frame, and the mouth's corners popped by 0.15-0.3 h
+    /// (temporal ratio 3.14 at 91 frames with the vertical direction, 2.93 with the
+    /// skeleton's). Measured with the setting (`pose --metrics`, 2026-12-03; summed
+    /// penetrating vertices, default → setting): the mouth 1.02 and 1.00 at 91 frames, its
+    /// faces inverted against the input 7 → 0, no penetrating vertex either way; the LBS
+    /// capsule, finger and `finger_long` unchanged (0; the finger's ratio at 91 frames 1.84);
+    /// the finger with DQS and CoR input 65 → 36 and 45 → 32 over 31 frames; but the
+    /// capsule with CoR 10 → 17 (up to 5 in a frame, 0.30 h deep) and DQS 9 → 12, at 76
+    /// frames 29 → 54 and 34 → 48, Fox's run 69 → 78 (a face turned), CesiumMan 21 → 21. For
+    /// a pair like the lips, not for an articulation squashed into a wall. (Until 2026-12-03
+    /// the setting left such vertices in their zone with `σ` free there: the same mouth
+    /// ratios, with 9 to 13 inverted faces, the finger with DQS 59, the capsule with CoR 21.)
     pub free_isolated_crease: bool,
 }
 
@@ -549,9 +554,20 @@ pub fn resolve_detected_in(
         return Ok(None);
     }
     if let Some(tree) = tree {
-        zones_to_the_crease(pre, &crease.on_w1, positions, normals, tree, &mut contact);
+        let crease_input = CreaseVertices {
+            on_w1: &crease.on_w1,
+            positions,
+            normals,
+            test: tree,
+        };
+        zones_to_the_crease(
+            pre,
+            &crease_input,
+            &mut contact,
+            params.free_isolated_crease,
+        );
     }
-    let signs = ZoneSigns::new(pre, &contact, params.free_isolated_crease);
+    let signs = ZoneSigns { contact: &contact };
     let sigma = sigma_field(pre, positions, &signs)?;
     timings.directions = laps.next();
     let [s1, s2] = deform_both(pre, geometry, &contact, &sigma, params)?;
@@ -1062,55 +1078,133 @@ fn cut_labels(triangles: &[[u32; 3]], faces: &[u32], on_w1: &[bool]) -> Vec<u8> 
 /// As zone vertices, the crease vertices go to their own point on `S` (about where they are)
 /// and keep their side's sign, whichever side the cut gives them from frame to frame. The cut
 /// also runs round the outside of the joint, where nothing is inside the other part: those
-/// vertices stay out (else the zones would jump there as the cut moves).
+/// vertices stay out (else the zones would jump there as the cut moves). With `connected_only`
+/// ([`FoldParams::free_isolated_crease`]) a crease vertex joins only where it connects to the
+/// zone it would join (next to one of its vertices, or to a crease vertex joining it).
 fn zones_to_the_crease(
     pre: &FoldPre,
-    on_w1: &[bool],
-    positions: &[Point3<f64>],
-    normals: &[Vector3<f64>],
-    test: &InsideTwice,
+    input: &CreaseVertices,
     contact: &mut Contact,
+    connected_only: bool,
 ) {
+    let candidates = crease_candidates(pre, input, contact);
+    let inside = |v: usize| input.test.at(v, &input.positions[v], &input.normals[v]);
+    let joining: Vec<(usize, usize)> = if connected_only {
+        connected_candidates(pre, &candidates, contact, inside)
+    } else {
+        candidates.into_iter().filter(|&(v, _)| inside(v)).collect()
+    };
+    for (v, k) in joining {
+        let side = &mut contact.sides[k];
+        side.zone.inside[v] = true;
+        side.zone.vertices.push(v as u32);
+    }
+    for side in &mut contact.sides {
+        side.zone.vertices.sort_unstable();
+    }
+}
+
+/// What [`zones_to_the_crease`] reads of the frame: the cut, the posed body and the
+/// inside-twice test.
+struct CreaseVertices<'a> {
+    on_w1: &'a [bool],
+    positions: &'a [Point3<f64>],
+    normals: &'a [Vector3<f64>],
+    test: &'a InsideTwice<'a>,
+}
+
+/// The crease vertices (on an edge of `R` across the cut) outside the zones, each with the
+/// zone it would join (its own side's, else the other's, whose sample is [`conditioned`]), in
+/// the order of `R`'s edges. Zones are extended, not created: a zone made of crease vertices
+/// alone can sit on the working region's border, where the extent is capped to nothing and no
+/// bulge can compensate (measured on CesiumMan: a one-vertex zone, volume error 7e-3).
+fn crease_candidates(
+    pre: &FoldPre,
+    input: &CreaseVertices,
+    contact: &Contact,
+) -> Vec<(usize, usize)> {
     let region = &pre.shared.solver.region;
     // The body's mean edge length in this frame (computed once, with the test).
-    let length = test.h;
-    let inside = |v: usize| test.at(v, &positions[v], &normals[v]);
-    // Zones are extended, not created: a zone made of crease vertices alone can sit on the
-    // working region's border, where the extent is capped to nothing and no bulge can
-    // compensate (measured on CesiumMan: a one-vertex zone, volume error 7e-3).
+    let length = input.test.h;
     let extendable = contact
         .sides
         .each_ref()
         .map(|c| !c.zone.vertices.is_empty());
+    let mut seen = vec![false; input.positions.len()];
+    let mut candidates = Vec::new();
     for &[a, b] in &region.edges {
         let (va, vb) = (
             region.vertices[a as usize] as usize,
             region.vertices[b as usize] as usize,
         );
-        if on_w1[va] == on_w1[vb] {
+        if input.on_w1[va] == input.on_w1[vb] {
             continue;
         }
         for v in [va, vb] {
-            if contact.sides.iter().any(|c| c.zone.inside[v]) {
+            if std::mem::replace(&mut seen[v], true)
+                || contact.sides.iter().any(|c| c.zone.inside[v])
+            {
                 continue;
             }
-            let own = usize::from(!on_w1[v]);
-            let Some(k) = [own, 1 - own]
+            let own = usize::from(!input.on_w1[v]);
+            let joins = [own, 1 - own]
                 .into_iter()
-                .find(|&k| extendable[k] && conditioned(&contact.sides[k], v, length))
-            else {
-                continue;
-            };
-            if inside(v) {
-                let side = &mut contact.sides[k];
-                side.zone.inside[v] = true;
-                side.zone.vertices.push(v as u32);
+                .find(|&k| extendable[k] && conditioned(&contact.sides[k], v, length));
+            if let Some(k) = joins {
+                candidates.push((v, k));
             }
         }
     }
-    for side in &mut contact.sides {
-        side.zone.vertices.sort_unstable();
+    candidates
+}
+
+/// [`FoldParams::free_isolated_crease`]: of the `candidates`, those inside the other part and
+/// connected to the zone they would join, next to one of its vertices or to a candidate that
+/// joins it (a flood over `R`'s edges from the zones); the isolated ones stay out.
+fn connected_candidates(
+    pre: &FoldPre,
+    candidates: &[(usize, usize)],
+    contact: &Contact,
+    inside: impl Fn(usize) -> bool,
+) -> Vec<(usize, usize)> {
+    let region = &pre.shared.solver.region;
+    let mut local = HashMap::with_capacity(region.vertices.len());
+    for (l, &v) in region.vertices.iter().enumerate() {
+        local.insert(v as usize, l);
     }
+    let mut neighbours = vec![Vec::new(); region.vertices.len()];
+    for &[a, b] in &region.edges {
+        neighbours[a as usize].push(b as usize);
+        neighbours[b as usize].push(a as usize);
+    }
+    // Per local vertex: the zone it would join, while it has not been tried.
+    let mut open: Vec<Option<usize>> = vec![None; region.vertices.len()];
+    for &(v, k) in candidates {
+        if let Some(&l) = local.get(&v) {
+            open[l] = Some(k);
+        }
+    }
+    let next_to_zone = |l: usize, k: usize| {
+        neighbours[l]
+            .iter()
+            .any(|&m| contact.sides[k].zone.inside[region.vertices[m] as usize])
+    };
+    let mut queue: std::collections::VecDeque<usize> = (0..open.len())
+        .filter(|&l| open[l].is_some_and(|k| next_to_zone(l, k)))
+        .collect();
+    let mut joining = Vec::new();
+    while let Some(l) = queue.pop_front() {
+        let Some(k) = open[l].take() else {
+            continue;
+        };
+        let v = region.vertices[l] as usize;
+        if !inside(v) {
+            continue;
+        }
+        joining.push((v, k));
+        queue.extend(neighbours[l].iter().filter(|&&m| open[m] == Some(k)));
+    }
+    joining
 }
 
 /// Whether `side`'s sample of `v` places it on `S` by a displacement that agrees with its
@@ -1159,31 +1253,14 @@ fn sigma_field(
     Ok(sigma)
 }
 
-/// `σ`'s Dirichlet values at the vertices of the contact zones: +1 in `C_1`, -1 in `C_2`,
-/// none at the vertices left free ([`FoldParams::free_isolated_crease`]).
+/// `σ`'s Dirichlet values at the vertices of the contact zones: +1 in `C_1`, -1 in `C_2`.
 struct ZoneSigns<'a> {
     contact: &'a Contact,
-    /// Per mesh vertex: a zone vertex whose sign is not imposed.
-    free: Vec<bool>,
 }
 
-impl<'a> ZoneSigns<'a> {
-    /// The zones' signs, with the isolated shallow crease vertices left free when `free_isolated`
-    /// (no per-vertex array otherwise).
-    fn new(pre: &FoldPre, contact: &'a Contact, free_isolated: bool) -> Self {
-        let mut free = Vec::new();
-        if free_isolated {
-            free = vec![false; contact.sides[0].zone.inside.len()];
-            isolated_shallow(pre, contact, &mut free);
-        }
-        Self { contact, free }
-    }
-
+impl ZoneSigns<'_> {
     /// `σ`'s Dirichlet value at `v`, if it has one.
     fn at(&self, v: usize) -> Option<f64> {
-        if self.free.get(v).copied().unwrap_or(false) {
-            return None;
-        }
         let zones = &self.contact.sides;
         if zones[0].zone.inside[v] {
             Some(1.0)
@@ -1192,39 +1269,6 @@ impl<'a> ZoneSigns<'a> {
         } else {
             None
         }
-    }
-}
-
-/// Marks in `free` the zone vertices of the shared region whose sample lies less than `ε_c`
-/// deep (the crease vertices that [`zones_to_the_crease`] added: Eq. 3 takes only those at
-/// least `ε_c` deep) and that have no vertex of their zone at least `ε_c` deep among their
-/// neighbours in `R`. The zone is the one whose sign they carry ([`ZoneSigns::at`]: `C_1`
-/// first). A freed vertex on a border of `R` keeps that border's value, as any free vertex of
-/// `R` there.
-fn isolated_shallow(pre: &FoldPre, contact: &Contact, free: &mut [bool]) {
-    let region = &pre.shared.solver.region;
-    let shallow = |k: usize, v: usize| {
-        contact.sides[k]
-            .samples
-            .get(v)
-            .is_some_and(|s| s.depth < contact.threshold)
-    };
-    let in_zone = |k: usize, v: usize| contact.sides[k].zone.inside[v];
-    let mut deep_next = vec![[false; 2]; region.vertex_count()];
-    for &[a, b] in &region.edges {
-        for (x, y) in [(a, b), (b, a)] {
-            let vy = region.vertices[y as usize] as usize;
-            for (k, deep) in deep_next[x as usize].iter_mut().enumerate() {
-                *deep |= in_zone(k, vy) && !shallow(k, vy);
-            }
-        }
-    }
-    for (l, &v) in region.vertices.iter().enumerate() {
-        let v = v as usize;
-        let Some(k) = (0..2).find(|&k| in_zone(k, v)) else {
-            continue;
-        };
-        free[v] = shallow(k, v) && !deep_next[l][k];
     }
 }
 
