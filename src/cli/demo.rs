@@ -722,3 +722,34 @@ fn print_self_contact_table(rows: &[SelfContactRow]) {
          <scene>/<anim>.contact.glb (CoR: .contact.cor.glb))"
     );
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The configuration the demo writes for the mouth parses, and sets the lips' pair as its
+    /// doc says: the vertical direction and `free_isolated_crease`; the other scenes get none.
+    #[test]
+    fn the_mouths_configuration_sets_the_lips() {
+        let text = default_config(Scene::Mouth).expect("the mouth has one");
+        let dir = std::path::Path::new(".");
+        let config =
+            contact_skin::config::ContactConfig::from_str_with_base(text, dir).expect("parses");
+        let section = config.self_contact.expect("a [self_contact] section");
+        let [pair] = section.pairs.as_slice() else {
+            panic!("one pair: {:?}", section.pairs);
+        };
+        assert_eq!(pair.name, "lips/head-jaw");
+        assert_eq!(pair.free_isolated_crease, Some(true));
+        let vertical = contact_skin::selfcontact::DirectionSource::Fixed(nalgebra::Vector3::new(
+            0.0, -1.0, 0.0,
+        ));
+        assert_eq!(
+            pair.direction,
+            Some(contact_skin::config::SelfDirection(vertical))
+        );
+        for scene in Scene::ALL.iter().filter(|&&s| s != Scene::Mouth) {
+            assert!(default_config(*scene).is_none(), "{scene:?}");
+        }
+    }
+}
