@@ -668,11 +668,12 @@ fn freeing_isolated_crease_vertices_removes_the_mouths_pop() {
     );
 }
 
-/// [`FoldParams::free_isolated_crease`]'s rule, read off the folds' own zones: with the setting
-/// every zone vertex of the shared region that Eq. 3 did not take (a crease vertex the fold
-/// added) connects through vertices of its zone in `R` to one that Eq. 3 took, and the zones
-/// are those without the setting less the crease vertices that do not (on the same input:
-/// one sweep, one fold a frame); `σ` is its zone's sign at every zone vertex either way. On
+/// [`FoldParams::free_isolated_crease`]'s rule, read off the folds' own zones: the zones with
+/// the setting are exactly those without it less the crease vertices the fold added (zone
+/// vertices of `R` that Eq. 3 did not take) that no path over `R`'s edges through vertices of
+/// the zone joins to one that Eq. 3 took, the paths read off the zones without the setting
+/// (on the same input: one sweep, one fold a frame); `σ` is its zone's sign at every zone
+/// vertex either way. On
 /// the mouth (vertical direction) and the CoR capsule, 31 frames. Measured: on the mouth 161
 /// crease vertices joined without the setting, all isolated, none with it; on the capsule
 /// most connect.
@@ -690,6 +691,13 @@ fn isolated_crease_vertices_stay_out_of_the_zones() {
         let r = &pairs[0];
         let shared = |v: usize| r.w1[v] && r.w2[v];
         let adj = vertex_adjacency(r.w1.len(), &l.triangles[0]);
+        // `R`'s own edges (those of its faces), over which the fold connects a crease vertex.
+        let r_faces: Vec<[u32; 3]> = r
+            .shared_faces
+            .iter()
+            .map(|&t| l.triangles[0][t as usize])
+            .collect();
+        let r_adj = vertex_adjacency(r.w1.len(), &r_faces);
         let guard = safeguard_cos(FoldParams::default().safeguard_angle);
         let zones = |free: bool| {
             let params = FoldParams {
@@ -728,8 +736,7 @@ fn isolated_crease_vertices_stay_out_of_the_zones() {
                         .get(v)
                         .is_some_and(|s| s.depth >= a.threshold && s.safeguard >= guard)
                 };
-                let reach =
-                    zone_reach(&a.sides[k].zone.inside, &b.sides[k].zone.inside, &adj, &eq3);
+                let reach = zone_reach(&a.sides[k].zone.inside, &r_adj, &eq3);
                 for v in (0..adj.len()).filter(|&v| shared(v) && a.sides[k].zone.inside[v]) {
                     let kept = b.sides[k].zone.inside[v];
                     if eq3(v) {
@@ -757,14 +764,10 @@ fn isolated_crease_vertices_stay_out_of_the_zones() {
     assert!(connected_anywhere > 0, "connected crease vertices occur");
 }
 
-/// Per vertex, whether it is reached from a vertex of `eq3` through vertices of `zone` that
-/// are also in `kept` (the zone with the setting), over `adj`: the connected part of the zone.
-fn zone_reach(
-    zone: &[bool],
-    kept: &[bool],
-    adj: &[Vec<usize>],
-    eq3: &dyn Fn(usize) -> bool,
-) -> Vec<bool> {
+/// Per vertex, whether it is reached from a vertex of `zone` that Eq. 3 took (`eq3`) through
+/// vertices of `zone` over `adj` (`R`'s edges): from the zone without the setting alone, the
+/// crease vertices the setting must keep.
+fn zone_reach(zone: &[bool], adj: &[Vec<usize>], eq3: &dyn Fn(usize) -> bool) -> Vec<bool> {
     let mut reach = vec![false; zone.len()];
     let mut stack: Vec<usize> = (0..zone.len()).filter(|&v| zone[v] && eq3(v)).collect();
     for &v in &stack {
@@ -772,7 +775,7 @@ fn zone_reach(
     }
     while let Some(v) = stack.pop() {
         for &w in &adj[v] {
-            if zone[w] && kept[w] && !reach[w] {
+            if zone[w] && !reach[w] {
                 reach[w] = true;
                 stack.push(w);
             }
@@ -1821,9 +1824,9 @@ fn merged_rig(a: &rig::Rig, b: &rig::Rig) -> rig::Rig {
 }
 
 /// Two bodies folding in one rig (the bending capsule and the finger, CoR input, where the
-/// further sweeps act on both) give each body what it gets alone: the sweeps, their
-/// further-sweep test and its stopping decision are per body, so a body's result does not
-/// depend on what else the rig holds.
+/// further sweeps act on both) give each body what it gets alone, positions and fold reports:
+/// the sweeps, their further-sweep test and its stopping decision are per body, so a body's
+/// result does not depend on what else the rig holds.
 #[test]
 fn bodies_fold_independently() {
     let frames = 31;
@@ -1859,6 +1862,16 @@ fn bodies_fold_independently() {
                 .run(&l.rig, &l.rig.pose_at(Some(0), t), &mut own)
                 .expect("pass runs");
             further[b] += usize::from(ro.sweeps > 2);
+            // The same folds resolved, not only the same positions: no sweep repeated on a
+            // body that another body's sweeps kept going.
+            let reports = |o: &SelfPassOutput, body: usize| -> Vec<String> {
+                o.folds
+                    .iter()
+                    .filter(|x| x.body == body)
+                    .map(|x| x.name.clone())
+                    .collect()
+            };
+            assert_eq!(reports(&r, b), reports(&ro, 0), "frame {f}, body {b}");
             assert!(
                 r.sweeps >= ro.sweeps,
                 "frame {f}: {} < {}",

@@ -167,8 +167,10 @@ pub struct FoldParams {
     pub bulge_guard: bool,
     /// Leave out of the contact zones the crease vertices that the fold would add to a zone
     /// (inside the other part, [`zones_to_the_crease`]) but that do not connect to it: only
-    /// those next to one of its vertices, or to a crease vertex joining it, join. The isolated
-    /// ones keep the profile's displacement and a harmonic `σ`. Not in the paper; default off.
+    /// those next to one of its vertices, or to a crease vertex joining it, over the shared
+    /// region's edges, join. The isolated ones keep the profile's displacement and a harmonic
+    /// `σ` (the name is the former rule's, which left only `σ` free; kept for the
+    /// configuration files). Not in the paper; default off.
     /// Such a vertex joins or leaves its zone from one frame to the next, pinned on `S` and
     /// given its zone's sign at once: next to a vertex where `σ` was about 0, the amplitude,
     /// faded by `|σ|`, came back in one frame, and the mouth's corners popped by 0.15-0.3 h

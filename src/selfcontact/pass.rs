@@ -222,9 +222,10 @@ impl SelfContactPass {
     /// vertices counted). Each body is counted and stopped on its own, so that a body gets
     /// what it gets alone whatever else the rig holds (until 2026-12-03 the counts were summed
     /// over the bodies: the bending capsule next to the finger, CoR input, took a fourth sweep
-    /// at frame 13 of 31 that it does not take alone). A further sweep runs only the folds whose working regions hold one of
-    /// those vertices: what no fold reaches (an arm against the torso) costs one test, and a
-    /// fold left out reports nothing for that sweep ([`SelfPassOutput`]'s counts). Where the
+    /// at frame 13 of 31 that it does not take alone; a body that the last sweep did not move
+    /// stops too). A further sweep runs only the folds whose working regions hold one of those
+    /// vertices: what no fold reaches (an arm against the torso) costs one test, and a fold
+    /// left out reports nothing for that sweep ([`SelfPassOutput`]'s counts). Where the
     /// mapping direction is not square to the contact (a direction 3° off the bending
     /// capsule's skeleton's leaves 82 penetrating vertices over 31 frames after 2 sweeps, 2
     /// with the default), on CoR or DQS input, or where a neighbouring joint's fold pushed back
@@ -337,6 +338,7 @@ impl SelfContactPass {
         let mut active = vec![true; self.folds.len()];
         for sweep in 1..=self.max_passes {
             let mut changed = false;
+            further.moved.fill(false);
             for (fold, _) in self.folds.iter().zip(&active).filter(|(_, &a)| a) {
                 let frame = Frame {
                     rig,
@@ -346,6 +348,7 @@ impl SelfContactPass {
                 let moved_now = self.sweep_fold(fold, frame, &mut frame_input, &mut out)?;
                 if moved_now && self.max_passes > self.passes {
                     add_shared_region(&mut further.reach[fold.body], &fold.pre.regions);
+                    further.moved[fold.body] = true;
                 }
                 changed |= moved_now;
             }
@@ -558,6 +561,8 @@ struct FurtherSweeps {
     reach: Vec<Vec<bool>>,
     /// Per body, the penetrating vertices the last test found.
     left: Vec<Option<usize>>,
+    /// Per body, whether a fold moved it in the sweep just run.
+    moved: Vec<bool>,
 }
 
 impl FurtherSweeps {
@@ -565,14 +570,21 @@ impl FurtherSweeps {
         Self {
             reach: vec![Vec::new(); bodies],
             left: vec![None; bodies],
+            moved: vec![false; bodies],
         }
     }
 
     /// After a sweep at or past the sweep count: per fold, whether it runs in a further
-    /// sweep, `None` when no fold does. A body goes on only while penetrating vertices are
+    /// sweep, `None` when no fold does. A body goes on only while the sweep just run moved it
+    /// (else another would find the same, as for the whole frame), penetrating vertices are
     /// left in its reach and its last sweep left fewer than the one before; a body done is
     /// neither tested nor swept again.
     fn next(&mut self, pass: &SelfContactPass, bodies: &mut PosedBodies) -> Option<Vec<bool>> {
+        for (reach, &moved) in self.reach.iter_mut().zip(&self.moved) {
+            if !moved {
+                reach.clear();
+            }
+        }
         let mut flagged = pass.penetrating(bodies, &self.reach);
         let each = flagged.iter_mut().zip(&mut self.left).zip(&mut self.reach);
         for ((flags, left), reach) in each {
