@@ -166,7 +166,7 @@ pub struct FoldParams {
     /// 4).
     pub bulge_guard: bool,
     /// Leave out of the contact zones the crease vertices that the fold would add to a zone
-    /// (inside the other part, [`zones_to_the_crease`]) but that do not connect to it: only
+    /// (inside the other part, `zones_to_the_crease`) but that do not connect to it: only
     /// those next to one of its vertices, or to a crease vertex joining it, over the shared
     /// region's edges, join. The isolated ones keep the profile's displacement and a harmonic
     /// `σ` (the name is the former rule's, which left only `σ` free; kept for the
