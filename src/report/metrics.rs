@@ -889,7 +889,9 @@ pub fn penetrating_among(
     h: f64,
     among: &[bool],
 ) -> Vec<u32> {
-    let h = given_or_mean_edge(h, positions, triangles, &valid_faces(positions, triangles));
+    let h = given_or(h, || {
+        valid_mean_edge_length(positions, triangles, &valid_faces(positions, triangles))
+    });
     let (mut evaluated, _) = surface_vertices(positions, triangles, normals);
     evaluated.retain(|(v, _)| among.get(*v as usize).copied().unwrap_or(false));
     inside_when_nudged(winding, positions, &evaluated, h)
@@ -898,17 +900,12 @@ pub fn penetrating_among(
         .collect()
 }
 
-/// `h` when finite and positive, else the mean edge length of the `valid` faces.
-fn given_or_mean_edge(
-    h: f64,
-    positions: &[Point3<f64>],
-    triangles: &[[u32; 3]],
-    valid: &[bool],
-) -> f64 {
+/// `h` when finite and positive, else `mean_edge()` (computed only then).
+fn given_or(h: f64, mean_edge: impl FnOnce() -> f64) -> f64 {
     if h.is_finite() && h > 0.0 {
         h
     } else {
-        valid_mean_edge_length(positions, triangles, valid)
+        mean_edge()
     }
 }
 
@@ -938,7 +935,7 @@ fn flag_penetrating(
     h: f64,
     valid: &[bool],
 ) -> Flags {
-    let h = given_or_mean_edge(h, positions, triangles, valid);
+    let h = given_or(h, || valid_mean_edge_length(positions, triangles, valid));
     let (evaluated, skipped) = surface_vertices(positions, triangles, normals);
     let winding = WindingNumber::new(positions, triangles);
     let flagged = inside_when_nudged(&winding, positions, &evaluated, h);

@@ -1162,7 +1162,8 @@ fn crease_candidates(
 
 /// [`FoldParams::free_isolated_crease`]: of the `candidates`, those inside the other part and
 /// connected to the zone they would join, next to one of its vertices or to a candidate that
-/// joins it (a flood over `R`'s edges from the zones); the isolated ones stay out.
+/// joins it (a flood over `R`'s edges, [`FoldPre`]'s adjacency of `R`, from the zones); the
+/// isolated ones stay out.
 fn connected_candidates(
     pre: &FoldPre,
     candidates: &[(usize, usize)],
@@ -1170,26 +1171,18 @@ fn connected_candidates(
     inside: impl Fn(usize) -> bool,
 ) -> Vec<(usize, usize)> {
     let region = &pre.shared.solver.region;
-    let mut local = HashMap::with_capacity(region.vertices.len());
-    for (l, &v) in region.vertices.iter().enumerate() {
-        local.insert(v as usize, l);
-    }
-    let mut neighbours = vec![Vec::new(); region.vertices.len()];
-    for &[a, b] in &region.edges {
-        neighbours[a as usize].push(b as usize);
-        neighbours[b as usize].push(a as usize);
-    }
+    let neighbours = &pre.shared_adjacency;
     // Per local vertex: the zone it would join, while it has not been tried.
     let mut open: Vec<Option<usize>> = vec![None; region.vertices.len()];
     for &(v, k) in candidates {
-        if let Some(&l) = local.get(&v) {
-            open[l] = Some(k);
+        if let Some(&l) = pre.shared.local_of.get(v).filter(|&&l| l != u32::MAX) {
+            open[l as usize] = Some(k);
         }
     }
     let next_to_zone = |l: usize, k: usize| {
         neighbours[l]
             .iter()
-            .any(|&m| contact.sides[k].zone.inside[region.vertices[m] as usize])
+            .any(|&m| contact.sides[k].zone.inside[region.vertices[m as usize] as usize])
     };
     let mut queue: std::collections::VecDeque<usize> = (0..open.len())
         .filter(|&l| open[l].is_some_and(|k| next_to_zone(l, k)))
@@ -1204,7 +1197,8 @@ fn connected_candidates(
             continue;
         }
         joining.push((v, k));
-        queue.extend(neighbours[l].iter().filter(|&&m| open[m] == Some(k)));
+        let next = neighbours[l].iter().map(|&m| m as usize);
+        queue.extend(next.filter(|&m| open[m] == Some(k)));
     }
     joining
 }
