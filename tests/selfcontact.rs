@@ -132,7 +132,7 @@ fn run_full(
         let mut out = input.clone();
         let pose = l.rig.pose_at(Some(0), l.times[f]);
         let res = pass
-            .run(&l.rig, &pose, &mut out)
+            .run_with_normals(&l.rig, &pose, &mut out, &skinned)
             .expect("self-contact pass runs");
         for fold in res.folds.iter().filter(|f| !f.output.unbalanced) {
             steepness = steepness.max(fold.output.bulge_steepness);
@@ -316,7 +316,9 @@ fn the_turn_guard_keeps_faces_from_turning() {
         let pose = l.rig.pose_at(Some(0), l.times[f]);
         let outcome = |pass: &SelfContactPass| {
             let mut out = input.clone();
-            let res = pass.run(&l.rig, &pose, &mut out).expect("runs");
+            let res = pass
+                .run_with_normals(&l.rig, &pose, &mut out, &skinned)
+                .expect("runs");
             let t =
                 metrics::turned_faces(&l.triangles[0], &input[0], &out[0], &skinned[0], l.h_rest);
             (t.turned, penetration(&l, 0, &out[0]).vertices, res.guarded)
@@ -522,7 +524,11 @@ fn native_frames(name: &str) -> usize {
 /// with the square of the step, so the ratio grows with the square of the frame count: 1.70 at
 /// 31 frames, 5.42 at 76, above the issue's bound of 3. The finger: 1.84, no penetrating
 /// vertex (one at frames 85 and 89 before the walls' crossings at contour points were made
-/// independent of round-off). The bounds below
+/// independent of round-off). Since 2026-12-03 the seam vertices of the crease cut are in the
+/// mapping regions whether the propagation reaches them or not (`contact::mapping`): the
+/// threshold no longer jumps there, and the capsule measures 1.89 at 31 frames and 3.93 at 76
+/// (its largest second difference now at vertex 2109, frame 63), the finger 2.07 at 91
+/// (vertex 1046, frame 63), still no penetrating vertex in either. The bounds below
 /// are those measurements with a margin, not the issue's targets: this test guards the state
 /// the issue note reports.
 #[test]
@@ -530,20 +536,21 @@ fn lbs_folds_at_the_animations_frame_rate() {
     let frames = native_frames("bending_capsule");
     assert_eq!(frames, 76);
     let capsule = run("bending_capsule", frames, &[]);
-    check("bending_capsule", &capsule, 0, 0, 6.5);
+    check("bending_capsule", &capsule, 0, 0, 4.5);
     let frames = native_frames("finger");
     assert_eq!(frames, 91);
     let finger = run("finger", frames, &[]);
-    check("finger", &finger, 0, 0, 2.2);
+    check("finger", &finger, 0, 0, 2.4);
 }
 
 /// Sweeps past the count while the folds' shared regions keep penetrating vertices
 /// (`with_max_passes`, by default up to 4 in all since 2026-12-03):
 /// `finger_long` sampled at 61 frames, without the bulge guard, keeps one penetrating vertex
-/// in frame 59 after its 2 sweeps (welded 3754, 0.37 h deep: on the middle-distal crease cut,
-/// a zero-depth sample pinned where it is while its neighbours move), which a third sweep
-/// resolves; in frame 58, clear after 2, the further sweeps change nothing. (With the guard,
-/// the default, 2 sweeps leave none in either frame.)
+/// in frame 56 after its 2 sweeps, which a further sweep resolves; in frame 58, clear after 2,
+/// the further sweeps change nothing. (With the guard, the default, 2 sweeps leave none in
+/// either frame. Until the seam vertices joined the mapping regions, 2026-12-03, the case was
+/// frame 59: welded 3754, 0.37 h deep on the middle-distal crease cut, a zero-depth sample
+/// pinned where it is while its neighbours move; 2 sweeps now clear it.)
 #[test]
 fn further_sweeps_resolve_what_two_leave() {
     use contact_skin::selfcontact::pass::DEFAULT_MAX_FOLD_PASSES;
@@ -556,7 +563,7 @@ fn further_sweeps_resolve_what_two_leave() {
     let further = self_pass_with(&l, &[], free)
         .with_passes(2)
         .with_max_passes(DEFAULT_MAX_FOLD_PASSES);
-    for f in [58, 59] {
+    for f in [58, 56] {
         let pose = l.rig.pose_at(Some(0), l.times[f]);
         let (mut two, mut more) = (l.frame(f), l.frame(f));
         let r2 = exact.run(&l.rig, &pose, &mut two).expect("pass runs");
@@ -572,10 +579,10 @@ fn further_sweeps_resolve_what_two_leave() {
             "frame {f}: further sweeps leave {}",
             pm.vertices
         );
-        if f == 59 {
+        if f == 56 {
             assert!(
                 p2.vertices > 0,
-                "frame 59 is no longer a case for further sweeps"
+                "frame 56 is no longer a case for further sweeps"
             );
             assert!(rm.sweeps > 2);
         } else {
@@ -1207,15 +1214,23 @@ fn map_points(s: &Matrix4<f64>, bodies: &[Vec<Point3<f64>>]) -> Vec<Vec<Point3<f
 ///   0.35 h and 0.15, 7.8e-3, 0.39 h. What remains on the capsule is round-off at the pass's
 ///   ties (its crease cut, for one, has two mirror-image cuts of equal cost at `β = 0.5`).
 ///
+/// Since 2026-12-03 the crease cut's seam vertices join the mapping regions
+/// (`contact::mapping`'s seam rule): 5.6e-2, 3.4e-5 and 7.5e-5 h through `x = 0`, 0.11, 5.0e-3
+/// and 0.10 h through the tilted plane, 0.11, 1.3e-2 and 0.15 h under the rotation. The seam
+/// lies on the silhouette (`n·m̂` near 0), where a vertex shared by the two parts is in one
+/// side's mapping region or the other's by round-off: under the rotation, one vertex of the
+/// finger (welded 3154, frame 27, the middle-distal fold) is, over 31 frames, the only
+/// difference between the images' mapping regions, and the zones' threshold spreads it.
+///
 /// The bounds guard these measurements.
 #[test]
 fn a_fold_and_its_mirror_image_agree() {
     let tilted = Vector3::new(1.0, 2.0, 3.0);
     let turn = nalgebra::Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(tilted), 1.0);
     let maps = [
-        ("plane x = 0", reflection(Vector3::x()), [0.05, 1e-3, 2e-3]),
-        ("tilted plane", reflection(tilted), [0.05, 1e-2, 0.25]),
-        ("rotation", turn.to_homogeneous(), [0.05, 1e-2, 0.25]),
+        ("plane x = 0", reflection(Vector3::x()), [0.1, 1e-3, 2e-3]),
+        ("tilted plane", reflection(tilted), [0.2, 1e-2, 0.25]),
+        ("rotation", turn.to_homogeneous(), [0.2, 0.03, 0.25]),
     ];
     for (label, s, bounds) in maps {
         for (name, bound) in ["finger", "mouth", "bending_capsule"]
@@ -1588,6 +1603,21 @@ fn bad_input_gives_typed_errors() {
         Err(SelfPassError::Mismatch(_))
     ));
     assert_eq!(frame, before, "nothing moved");
+    // The skinning's normals for the turn guard: one per position, or refused before anything
+    // moves; a non-finite normal is no reference (the frame still resolves, finite).
+    let mut normals = l.frame_normals(30);
+    normals[0].pop();
+    assert!(matches!(
+        pass.run_with_normals(&l.rig, &pose, &mut frame, &normals),
+        Err(SelfPassError::Mismatch(_))
+    ));
+    assert_eq!(frame, before, "nothing moved");
+    let mut normals = l.frame_normals(30);
+    normals[0][7].x = f64::NAN;
+    pass.run_with_normals(&l.rig, &pose, &mut frame, &normals)
+        .expect("a NaN normal is no reference, not an error");
+    assert_eq!(metrics::non_finite(&frame[0]), 0);
+    assert_ne!(frame, before, "the fold resolved");
 }
 
 /// The issue's "exterior of the joint unchanged where β = 0.5 and no contact": on the convex

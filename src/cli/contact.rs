@@ -182,9 +182,10 @@ pub fn run_frame(
     if let Some(s) = &run.self_contact {
         let clock = Instant::now();
         let pose = rig.pose_at(animation, t);
+        let normals = input.welded_normals(pre);
         let out = s
             .pass
-            .run(rig, &pose, &mut positions)
+            .run_with_normals(rig, &pose, &mut positions, &normals)
             .map_err(|e| format!("frame {index} (t = {t}): self-contact pass: {e}"))?;
         self_wall = clock.elapsed().as_secs_f64();
         self_output = Some(out);

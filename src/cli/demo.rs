@@ -172,8 +172,9 @@ fn self_contact_methods(scene: Scene) -> &'static [Method] {
 /// mapping direction is set by hand, vertical, as in the paper (Fig. 1d); outward for the
 /// upper lip, the parent (head) side W1; and the lips keep the crease vertices that do not
 /// connect to their zone out of it (`free_isolated_crease`, meant for lips: without it the
-/// corners pop, temporal ratio 3.14 at the demo's 91 frames, and 7 faces invert against the
-/// input; with it 1.02 and none).
+/// corners pop, temporal ratio 2.96 at the demo's 91 frames, and 8 faces invert against the
+/// input; with it 1.02 and 1; 3.14, 7, 1.02 and none before the crease cut's seam joined the
+/// mapping regions, 2026-12-03).
 fn default_config(scene: Scene) -> Option<&'static str> {
     match scene {
         Scene::Mouth => Some(

@@ -13,6 +13,16 @@
 //!
 //! Propagation also stops at vertices whose ray finds no hit (a vertex of `M_l` must be
 //! mappable); [`MappingStats::misses`] counts them.
+//!
+//! Two parts of one mesh (a self-contact, 2021 Sec. 6) share the vertices of the crease cut: such
+//! a *seam* vertex lies on both surfaces. Where it faces the other part and its ray's farthest
+//! hit is the vertex itself (its own incident face of the other part, at distance 0), it is a
+//! point of the contact surface at depth 0, and it joins `M_l` whether or not the propagation
+//! reaches it (`add_seams`; not in the paper, which does not cut a mesh in two). Before
+//! 2026-12-03 only the propagation decided, and whether it leaked round the cut ring from the
+//! walls flipped from frame to frame: 20-30 zero-depth samples came and went, Eq. 4's threshold
+//! jumped by 0.4-0.5 h, and the output popped (the bending capsule at 76 frames, ratio 5.42 →
+//! 3.93 with the seams; measured in `README.md`).
 
 use crate::intersect::{FrontSide, IntersectionRegion, PosedMesh, Ray, RayHit, Silhouette};
 use nalgebra::{Point3, Vector2, Vector3};
@@ -72,6 +82,9 @@ pub struct MappingStats {
     pub rays: usize,
     /// Candidate vertices whose ray found no hit (left out of `M_l`).
     pub misses: usize,
+    /// Seam vertices of a self-contact added to `M_l` beyond the propagation's
+    /// (see the module's doc).
+    pub seams: usize,
 }
 
 /// The mapping region `M_l` of one side and the mapping of its vertices.
@@ -89,7 +102,8 @@ pub struct MappingRegion {
 
 /// Computes `M_l` for side `own` (cast direction `cast`, intersection region flags
 /// `own_inside`) against `other` (its intersection region `other_region`). `reach` bounds ray
-/// lengths (a length larger than both surfaces).
+/// lengths (a length larger than both surfaces). `seams`: the two sides are parts of one mesh
+/// (vertex ids shared), whose seam vertices join `M_l` (see the module's doc).
 pub fn mapping_region(
     own: SideFrame,
     other: SideFrame,
@@ -97,6 +111,7 @@ pub fn mapping_region(
     other_region: &IntersectionRegion,
     cast: &Vector3<f64>,
     reach: f64,
+    seams: bool,
 ) -> MappingRegion {
     let index = own.mesh.index();
     let n = own.mesh.positions().len();
@@ -130,6 +145,9 @@ pub fn mapping_region(
     if !walls.segments.is_empty() {
         let tags = walls.crossings(own, &mut region);
         propagate(own, other, &front, &tags, cast, reach, &mut region);
+    }
+    if seams {
+        add_seams(own, other, &front, cast, reach, &mut region);
     }
     region.members = (0..n as u32)
         .filter(|&v| region.mapped[v as usize].is_some())
@@ -372,6 +390,40 @@ fn propagate(
     }
 }
 
+/// Adds to `M_l` the seam vertices of two parts of one mesh: front-facing vertices of `own`
+/// that `other` uses too (the crease cut's), whose ray's farthest hit on `other` is at the
+/// vertex itself (at most [`SEAM_DISTANCE`] of `reach` away). A seam vertex whose ray goes on
+/// through the other part is inside it: the intersection region's seeds and the propagation
+/// decide for it, as for any vertex.
+fn add_seams(
+    own: SideFrame,
+    other: SideFrame,
+    front: &[bool],
+    cast: &Vector3<f64>,
+    reach: f64,
+    region: &mut MappingRegion,
+) {
+    let shared = other.mesh.index();
+    for v in 0..front.len() as u32 {
+        let vi = v as usize;
+        if !front[vi] || region.mapped[vi].is_some() || !shared.uses_vertex(v) {
+            continue;
+        }
+        region.stats.rays += 1;
+        let Some(hit) = other.farthest_hit(&ray_from(own, v, cast, reach)) else {
+            continue;
+        };
+        if hit.t <= SEAM_DISTANCE * reach {
+            region.mapped[vi] = Some(mapping_of(other, &hit));
+            region.stats.seams += 1;
+        }
+    }
+}
+
+/// How far (a fraction of the ray reach) a seam vertex's farthest hit may lie from the vertex:
+/// round-off of a hit at distance 0 on a face the vertex is a corner of.
+const SEAM_DISTANCE: f64 = 1e-12;
+
 /// Two unit vectors completing `axis` to a right-handed orthonormal frame.
 pub fn orthonormal_basis(axis: &Vector3<f64>) -> [Vector3<f64>; 2] {
     let a = axis.normalize();
@@ -447,6 +499,57 @@ mod tests {
         }
         let (p0, p1) = (v(1.0 + 1e-6, -1.0), v(1.0 + 1e-6, 1.0));
         assert!(segment_crossing(&p0, &p1, &a, &b).is_none());
+    }
+
+    /// Two parts of one mesh meeting at a seam (the edge `x = z = 0`): part A in the plane
+    /// `z = 0` facing `+z` and cast along `-z`, part B leaning away below it (the plane
+    /// `x = z`, `x ≤ 0`). A's seam vertices are on B, the rest of A above nothing: with no
+    /// intersection region and no wall, only the seam rule maps them, onto themselves (depth
+    /// 0), and A's other vertices stay out; two separate surfaces have no seam.
+    #[test]
+    fn seam_vertices_of_one_mesh_join_the_mapping_region_at_depth_zero() {
+        use crate::intersect::{IntersectionRegion, MeshIndex, RegionStats, Side};
+        let p = Point3::new;
+        let positions = vec![
+            p(0.0, 0.0, 0.0),
+            p(0.0, 1.0, 0.0),
+            p(1.0, 0.0, 0.0),
+            p(1.0, 1.0, 0.0),
+            p(-1.0, 0.0, -1.0),
+            p(-1.0, 1.0, -1.0),
+        ];
+        let triangles = vec![[0, 2, 3], [0, 3, 1], [0, 1, 5], [0, 5, 4]];
+        let [a, b] =
+            MeshIndex::self_contact_parts(&positions, &triangles, &[1, 1, 2, 2]).expect("parts");
+        let (a, b) = (
+            a.pose(&positions).expect("A"),
+            b.pose(&positions).expect("B"),
+        );
+        let normals = vec![Vector3::z(); positions.len()];
+        let side = |mesh| SideFrame {
+            mesh,
+            normals: &normals,
+            hittable: None,
+        };
+        let none = IntersectionRegion {
+            side: Side::B,
+            inside: vec![false; positions.len()],
+            whole_faces: Vec::new(),
+            cut_faces: Vec::new(),
+            stats: RegionStats::default(),
+        };
+        let cast = -Vector3::z();
+        let inside = vec![false; positions.len()];
+        let m = mapping_region(side(&a), side(&b), &inside, &none, &cast, 10.0, true);
+        assert_eq!(m.members, vec![0, 1]);
+        assert_eq!(m.stats.seams, 2);
+        for v in [0, 1] {
+            let target = m.mapped[v].expect("mapped").target;
+            assert!((target - positions[v]).norm() <= 1e-12, "{v}: {target}");
+        }
+        let apart = mapping_region(side(&a), side(&b), &inside, &none, &cast, 10.0, false);
+        assert!(apart.members.is_empty());
+        assert_eq!(apart.stats.seams, 0);
     }
 
     /// A point of an edge is mapped like a vertex: its ray lands only on the faces the other

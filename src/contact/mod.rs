@@ -241,7 +241,8 @@ fn resolve(
             stiffness: 1.0 - stiffness_a,
         },
     ];
-    let mapped = mapping_regions([a, b], &regions, &frames, reach);
+    let seams = matches!(surfaces, Surfaces::PartsOfOneMesh(_));
+    let mapped = mapping_regions([a, b], &regions, &frames, reach, seams);
     let t_map = start.elapsed().as_secs_f64();
     let criterion = ZoneCriterion {
         tau: params.tau,
@@ -288,12 +289,14 @@ fn parts_of_one_mesh(
     ]
 }
 
-/// Sec. 4.2: the mapping region `M_l` of each side, cast along its `frames[l].cast`.
+/// Sec. 4.2: the mapping region `M_l` of each side, cast along its `frames[l].cast` (with the
+/// seam vertices of two parts of one mesh when `seams`, [`mapping::mapping_region`]).
 fn mapping_regions(
     sides: [SideFrame; 2],
     regions: &[IntersectionRegion; 2],
     frames: &[zones::SurfaceFrame; 2],
     reach: f64,
+    seams: bool,
 ) -> [MappingRegion; 2] {
     [0, 1].map(|k| {
         mapping::mapping_region(
@@ -303,6 +306,7 @@ fn mapping_regions(
             &regions[1 - k],
             &frames[k].cast,
             reach,
+            seams,
         )
     })
 }

@@ -244,6 +244,12 @@ pub struct FoldPre {
     rest_box: f64,
     /// The mean edge length of the working regions' faces at rest (the bulge guard's unit).
     rest_edge: f64,
+    /// The faces the turn guard checks: every face with a corner in `W1 ∪ W2`, those beyond
+    /// the working regions' border included, since the bulge moves the border's vertices too
+    /// (until 2026-12-03 only `W1 ∪ W2`'s faces: with the seam samples of
+    /// [`crate::contact::mapping`] a fold of Fox's hip turned face 33, next to the border, and
+    /// no guard saw it).
+    guarded_faces: Vec<u32>,
 }
 
 /// Time per step of one fold, in seconds.
@@ -388,6 +394,7 @@ impl FoldPre {
             faces.iter().map(|&f| triangles[f as usize]).collect();
         let rest_edge = crate::mesh::operators::mean_edge_length(rest, &region_triangles);
         let shared_adjacency = shared.solver.region.adjacency();
+        let guarded_faces = faces_touching(triangles, &regions.w1, &regions.w2);
         Ok(Self {
             joint_size,
             rest_box,
@@ -403,8 +410,20 @@ impl FoldPre {
             winding,
             topology,
             shared_adjacency,
+            guarded_faces,
         })
     }
+}
+
+/// The faces with a corner in `W1 ∪ W2` (flags per vertex), sorted.
+fn faces_touching(triangles: &[[u32; 3]], w1: &[bool], w2: &[bool]) -> Vec<u32> {
+    let inside = |v: u32| {
+        let v = v as usize;
+        w1.get(v).copied().unwrap_or(false) || w2.get(v).copied().unwrap_or(false)
+    };
+    (0..triangles.len() as u32)
+        .filter(|&f| triangles[f as usize].iter().any(|&v| inside(v)))
+        .collect()
 }
 
 /// The detection step of a fold: the vertices of the faces crossing the other part (rest
@@ -876,7 +895,7 @@ fn blend_and_balance(
         .filter(|_| params.turn_guard)
         .map(|reference| GuardInput {
             triangles,
-            faces: &pre.faces,
+            faces: &pre.guarded_faces,
             input: positions,
             reference,
         });

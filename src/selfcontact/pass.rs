@@ -317,14 +317,47 @@ impl SelfContactPass {
 
     /// Resolves every fold of a frame in place (`positions`: welded positions per body, `pose`
     /// the frame's skeleton pose, one world matrix per node of `rig`; a mismatch in either is
-    /// [`SelfPassError::Mismatch`], before anything moves).
+    /// [`SelfPassError::Mismatch`], before anything moves). The turn guard's second reference
+    /// is linear blend skinning's normals in `pose`; [`SelfContactPass::run_with_normals`]
+    /// takes the normals of the skinning that made `positions` instead.
     pub fn run(
         &self,
         rig: &Rig,
         pose: &Pose,
         positions: &mut [Vec<Point3<f64>>],
     ) -> Result<SelfPassOutput, SelfPassError> {
+        self.run_referenced(rig, pose, positions, None)
+    }
+
+    /// [`SelfContactPass::run`] with the turn guard's second reference given: `normals`, the
+    /// welded unit vertex normals per body of the skinning that made `positions` (DQS and CoR
+    /// carry normals by their own rotations), the reference of the turned-face metric
+    /// (`MEASURING.md`), so that what the guard lets through is what the metric counts. With
+    /// linear blend skinning's, the guard stopped faces 85° short of LBS's normals and the
+    /// metric, on CoR input, still counted a face of the bending capsule (frame 27 of 31, the
+    /// seam samples of [`crate::contact::mapping`] on): the rotations differ by more than the
+    /// margin there.
+    pub fn run_with_normals(
+        &self,
+        rig: &Rig,
+        pose: &Pose,
+        positions: &mut [Vec<Point3<f64>>],
+        normals: &[Vec<Vector3<f64>>],
+    ) -> Result<SelfPassOutput, SelfPassError> {
+        self.run_referenced(rig, pose, positions, Some(normals))
+    }
+
+    fn run_referenced(
+        &self,
+        rig: &Rig,
+        pose: &Pose,
+        positions: &mut [Vec<Point3<f64>>],
+        normals: Option<&[Vec<Vector3<f64>>]>,
+    ) -> Result<SelfPassOutput, SelfPassError> {
         self.check_frame(rig, pose, positions)?;
+        if let Some(normals) = normals {
+            check_normals(positions, normals)?;
+        }
         let mut out = SelfPassOutput::default();
         // The positions before any fold, copied when the first fold is detected: the turn
         // guard's reference.
@@ -343,6 +376,7 @@ impl SelfContactPass {
                 let frame = Frame {
                     rig,
                     pose,
+                    normals,
                     bodies: &mut bodies,
                 };
                 let moved_now = self.sweep_fold(fold, frame, &mut frame_input, &mut out)?;
@@ -450,15 +484,17 @@ impl SelfContactPass {
     }
 
     /// The turn guard's reference normals of `fold`'s body in this pose (`None` for a body
-    /// without a skin).
+    /// without a skin): the `given` normals of the body, else linear blend skinning's.
     fn skinned_normals<'s>(
         &'s self,
         rig: &'s Rig,
         pose: &Pose,
         fold: &Fold,
+        given: Option<&'s [Vec<Vector3<f64>>]>,
     ) -> Option<SkinnedNormals<'s>> {
         let body = rig.bodies.get(fold.body)?;
         Some(SkinnedNormals {
+            given: given.and_then(|n| n.get(fold.body)).map(Vec::as_slice),
             body,
             mats: pose.skin_matrices(rig.skins.get(body.skin)?),
             rest: self.rest_normals.get(fold.body)?,
@@ -474,7 +510,12 @@ impl SelfContactPass {
         frame_input: &mut Option<Vec<Vec<Point3<f64>>>>,
         out: &mut SelfPassOutput,
     ) -> Result<bool, SelfPassError> {
-        let Frame { rig, pose, bodies } = frame;
+        let Frame {
+            rig,
+            pose,
+            normals: given,
+            bodies,
+        } = frame;
         let name = &fold.pre.regions.pair.name;
         let tris = &self.triangles[fold.body];
         let fail = |source| SelfPassError::Fold {
@@ -505,7 +546,7 @@ impl SelfContactPass {
         let params = self.params_of(fold);
         let skinned = params
             .turn_guard
-            .then(|| self.skinned_normals(rig, pose, fold))
+            .then(|| self.skinned_normals(rig, pose, fold, given))
             .flatten();
         let first = skinned
             .is_some()
@@ -550,7 +591,27 @@ impl SelfContactPass {
 struct Frame<'f, 'p> {
     rig: &'f Rig,
     pose: &'f Pose,
+    /// The skinning's normals per body ([`SelfContactPass::run_with_normals`]).
+    normals: Option<&'f [Vec<Vector3<f64>>]>,
     bodies: &'f mut PosedBodies<'p>,
+}
+
+/// One normal per position, per body.
+fn check_normals(
+    positions: &[Vec<Point3<f64>>],
+    normals: &[Vec<Vector3<f64>>],
+) -> Result<(), SelfPassError> {
+    let counts =
+        |p: usize, n: usize| SelfPassError::Mismatch(format!("{p} positions, {n} normals"));
+    if normals.len() != positions.len() {
+        return Err(counts(positions.len(), normals.len()));
+    }
+    for (p, n) in positions.iter().zip(normals) {
+        if p.len() != n.len() {
+            return Err(counts(p.len(), n.len()));
+        }
+    }
+    Ok(())
 }
 
 /// What decides the further sweeps of a frame ([`SelfContactPass::with_max_passes`]), per body
@@ -744,6 +805,8 @@ fn with_detection(
 /// its blended joint matrix as linear blend skinning carries it (the cofactor), whatever
 /// skinning made the input: a sign reference per face only.
 struct SkinnedNormals<'s> {
+    /// The skinning's own normals of the body, when given.
+    given: Option<&'s [Vector3<f64>]>,
     body: &'s crate::rig::Body,
     mats: Vec<nalgebra::Matrix4<f64>>,
     rest: &'s [Vector3<f64>],
@@ -753,6 +816,12 @@ struct SkinnedNormals<'s> {
 impl SkinnedNormals<'_> {
     /// The reference normal of welded vertex `v` (zero if it has none).
     fn at(&self, v: usize) -> Vector3<f64> {
+        if let Some(given) = self.given {
+            return given
+                .get(v)
+                .copied()
+                .map_or_else(Vector3::zeros, unit_or_zero);
+        }
         let Some(&rep) = self.representative.get(v) else {
             return Vector3::zeros();
         };

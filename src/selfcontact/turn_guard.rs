@@ -26,10 +26,12 @@ use nalgebra::{Point3, Vector3};
 /// corners a neighbour's scale moved).
 const ROUNDS: usize = 8;
 /// How far short of 90° from both references a face is stopped: `cos 85°`. The pass's
-/// reference is linear blend skinning's normal whatever skinning made the input (a DQS or CoR
+/// reference was linear blend skinning's normal whatever skinning made the input (a DQS or CoR
 /// input carries its normals by other rotations, which differ by a few degrees at the joint);
 /// without the margin faces within those degrees of turning were let through (bending
-/// capsule, worst frame: 2 with CoR input, 1 with DQS).
+/// capsule, worst frame: 2 with CoR input, 1 with DQS). Since 2026-12-03 `pose` gives the
+/// pass the skinning's own normals (`SelfContactPass::run_with_normals`), the metric's
+/// reference; the margin stays for callers of `SelfContactPass::run`, which keeps LBS's.
 const MARGIN: f64 = 0.087_155_742_747_658_17;
 /// Evenly spaced parameters sampled for a face's first turning point before the bisection.
 const SAMPLES: usize = 16;
