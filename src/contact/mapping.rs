@@ -125,12 +125,8 @@ pub fn mapping_region(
     let seeds: Vec<u32> = (0..n as u32)
         .filter(|&v| front[v as usize] && own_inside.get(v as usize) == Some(&true))
         .collect();
-    let rays: Vec<Ray> = seeds
-        .iter()
-        .map(|&v| ray_from(own, v, cast, reach))
-        .collect();
-    let hits = crate::intersect::farthest_hits_among(other.mesh, &rays, other.hittable);
-    region.stats.rays += rays.len();
+    let hits = cast_from(own, other, &seeds, cast, reach);
+    region.stats.rays += seeds.len();
     for (&v, hit) in seeds.iter().zip(hits) {
         match hit {
             Some(h) => {
@@ -153,6 +149,21 @@ pub fn mapping_region(
         .filter(|&v| region.mapped[v as usize].is_some())
         .collect();
     region
+}
+
+/// The farthest hits on `other` of the rays of `vertices` along `cast` (in parallel).
+fn cast_from(
+    own: SideFrame,
+    other: SideFrame,
+    vertices: &[u32],
+    cast: &Vector3<f64>,
+    reach: f64,
+) -> Vec<Option<RayHit>> {
+    let rays: Vec<Ray> = vertices
+        .iter()
+        .map(|&v| ray_from(own, v, cast, reach))
+        .collect();
+    crate::intersect::farthest_hits_among(other.mesh, &rays, other.hittable)
 }
 
 /// The ray of vertex `v` along `cast`.
@@ -404,17 +415,18 @@ fn add_seams(
     region: &mut MappingRegion,
 ) {
     let shared = other.mesh.index();
-    for v in 0..front.len() as u32 {
-        let vi = v as usize;
-        if !front[vi] || region.mapped[vi].is_some() || !shared.uses_vertex(v) {
-            continue;
-        }
-        region.stats.rays += 1;
-        let Some(hit) = other.farthest_hit(&ray_from(own, v, cast, reach)) else {
-            continue;
-        };
-        if hit.t <= SEAM_DISTANCE * reach {
-            region.mapped[vi] = Some(mapping_of(other, &hit));
+    let candidates: Vec<u32> = (0..front.len() as u32)
+        .filter(|&v| {
+            front[v as usize] && region.mapped[v as usize].is_none() && shared.uses_vertex(v)
+        })
+        .collect();
+    region.stats.rays += candidates.len();
+    for (&v, hit) in candidates
+        .iter()
+        .zip(cast_from(own, other, &candidates, cast, reach))
+    {
+        if let Some(hit) = hit.filter(|h| h.t <= SEAM_DISTANCE * reach) {
+            region.mapped[v as usize] = Some(mapping_of(other, &hit));
             region.stats.seams += 1;
         }
     }

@@ -588,8 +588,7 @@ pub fn resolve_detected_in(
             params.free_isolated_crease,
         );
     }
-    let signs = ZoneSigns { contact: &contact };
-    let sigma = sigma_field(pre, positions, &signs)?;
+    let sigma = sigma_field(pre, positions, &contact)?;
     timings.directions = laps.next();
     let [s1, s2] = deform_both(pre, geometry, &contact, &sigma, params)?;
     timings.deformation = laps.next();
@@ -1239,7 +1238,7 @@ fn conditioned(side: &ContactSide, v: usize, length: f64) -> bool {
 fn sigma_field(
     pre: &FoldPre,
     positions: &[Point3<f64>],
-    signs: &ZoneSigns,
+    contact: &Contact,
 ) -> Result<Vec<f64>, FoldError> {
     let r = &pre.regions;
     let mut sigma: Vec<f64> = (0..positions.len())
@@ -1253,13 +1252,13 @@ fn sigma_field(
     if region.vertex_count() == 0 {
         return Ok(sigma);
     }
-    let (boundary, values) = sigma_boundary(pre, signs);
+    let (boundary, values) = sigma_boundary(pre, contact);
     let local = region.gather(positions);
     let mut problem = pre.shared.solver.problem(&local, &boundary)?;
     let solved = problem.harmonic(&values)?;
     for (l, &v) in region.vertices.iter().enumerate() {
         let v = v as usize;
-        sigma[v] = match signs.at(v) {
+        sigma[v] = match zone_sign(contact, v) {
             Some(s) => s,
             None if problem.unreached()[l] => 0.0,
             None => solved[l].clamp(-1.0, 1.0),
@@ -1268,36 +1267,29 @@ fn sigma_field(
     Ok(sigma)
 }
 
-/// `σ`'s Dirichlet values at the vertices of the contact zones: +1 in `C_1`, -1 in `C_2`.
-struct ZoneSigns<'a> {
-    contact: &'a Contact,
-}
-
-impl ZoneSigns<'_> {
-    /// `σ`'s Dirichlet value at `v`, if it has one.
-    fn at(&self, v: usize) -> Option<f64> {
-        let zones = &self.contact.sides;
-        if zones[0].zone.inside[v] {
-            Some(1.0)
-        } else if zones[1].zone.inside[v] {
-            Some(-1.0)
-        } else {
-            None
-        }
+/// `σ`'s Dirichlet value at `v`, if it is a vertex of a contact zone: +1 in `C_1`, -1 in `C_2`.
+fn zone_sign(contact: &Contact, v: usize) -> Option<f64> {
+    let zones = &contact.sides;
+    if zones[0].zone.inside[v] {
+        Some(1.0)
+    } else if zones[1].zone.inside[v] {
+        Some(-1.0)
+    } else {
+        None
     }
 }
 
 /// `σ`'s boundary on the shared region and its values (points first, then vertices): the
 /// zones' exact points on `R`'s edges (every edge leaving a zone gets one, at the zone vertex
 /// if the contact has none on it) and `R`'s vertices bordering one side only.
-fn sigma_boundary(pre: &FoldPre, signs: &ZoneSigns) -> (Boundary, Vec<f64>) {
+fn sigma_boundary(pre: &FoldPre, contact: &Contact) -> (Boundary, Vec<f64>) {
     let region = &pre.shared.solver.region;
     let inside: Vec<bool> = region
         .vertices
         .iter()
-        .map(|&v| signs.at(v as usize).is_some())
+        .map(|&v| zone_sign(contact, v as usize).is_some())
         .collect();
-    let exact = zone_exact_points(pre, signs.contact);
+    let exact = zone_exact_points(pre, contact);
     let mut points = Vec::new();
     let mut values = Vec::new();
     for (e, &[a, b]) in region.edges.iter().enumerate() {
@@ -1306,7 +1298,7 @@ fn sigma_boundary(pre: &FoldPre, signs: &ZoneSigns) -> (Boundary, Vec<f64>) {
         }
         let zone_vertex = if inside[a as usize] { a } else { b };
         let (alpha, sign) = exact.get(&(e as u32)).copied().unwrap_or_else(|| {
-            let s = signs.at(region.vertices[zone_vertex as usize] as usize);
+            let s = zone_sign(contact, region.vertices[zone_vertex as usize] as usize);
             (if zone_vertex == a { 0.0 } else { 1.0 }, s.unwrap_or(0.0))
         });
         points.push(EdgePoint {

@@ -493,13 +493,16 @@ impl SelfContactPass {
         given: Option<&'s [Vec<Vector3<f64>>]>,
     ) -> Option<SkinnedNormals<'s>> {
         let body = rig.bodies.get(fold.body)?;
-        Some(SkinnedNormals {
-            given: given.and_then(|n| n.get(fold.body)).map(Vec::as_slice),
+        let skin = rig.skins.get(body.skin)?;
+        if let Some(normals) = given.and_then(|n| n.get(fold.body)) {
+            return Some(SkinnedNormals::Given(normals));
+        }
+        Some(SkinnedNormals::Linear(LinearNormals {
             body,
-            mats: pose.skin_matrices(rig.skins.get(body.skin)?),
+            mats: pose.skin_matrices(skin),
             rest: self.rest_normals.get(fold.body)?,
             representative: self.representative.get(fold.body)?,
-        })
+        }))
     }
 
     /// One fold in one sweep; whether it moved the body.
@@ -800,28 +803,40 @@ fn with_detection(
     Ok(folds)
 }
 
-/// The turn guard's reference of one body in one pose: each welded vertex's rest normal (the
-/// file's where it has one, what the skinning carries; else the rest surface's) carried by
-/// its blended joint matrix as linear blend skinning carries it (the cofactor), whatever
-/// skinning made the input: a sign reference per face only.
-struct SkinnedNormals<'s> {
-    /// The skinning's own normals of the body, when given.
-    given: Option<&'s [Vector3<f64>]>,
+/// The turn guard's reference of one body in one pose (a sign reference per face only).
+enum SkinnedNormals<'s> {
+    /// The welded normals of the skinning that made the input
+    /// ([`SelfContactPass::run_with_normals`]).
+    Given(&'s [Vector3<f64>]),
+    /// Linear blend skinning's, computed from the pose ([`SelfContactPass::run`]).
+    Linear(LinearNormals<'s>),
+}
+
+impl SkinnedNormals<'_> {
+    /// The reference normal of welded vertex `v` (zero if it has none or a non-finite one).
+    fn at(&self, v: usize) -> Vector3<f64> {
+        match self {
+            Self::Given(normals) => normals
+                .get(v)
+                .copied()
+                .map_or_else(Vector3::zeros, unit_or_zero),
+            Self::Linear(linear) => linear.at(v),
+        }
+    }
+}
+
+/// Each welded vertex's rest normal (the file's where it has one, what the skinning carries;
+/// else the rest surface's) carried by its blended joint matrix as linear blend skinning
+/// carries it (the cofactor), whatever skinning made the input.
+struct LinearNormals<'s> {
     body: &'s crate::rig::Body,
     mats: Vec<nalgebra::Matrix4<f64>>,
     rest: &'s [Vector3<f64>],
     representative: &'s [u32],
 }
 
-impl SkinnedNormals<'_> {
-    /// The reference normal of welded vertex `v` (zero if it has none).
+impl LinearNormals<'_> {
     fn at(&self, v: usize) -> Vector3<f64> {
-        if let Some(given) = self.given {
-            return given
-                .get(v)
-                .copied()
-                .map_or_else(Vector3::zeros, unit_or_zero);
-        }
         let Some(&rep) = self.representative.get(v) else {
             return Vector3::zeros();
         };
