@@ -250,7 +250,9 @@ fn bending_capsule_fold() {
 /// the volume kept and no face turned (the turn guard), but not yet at the issue's targets (see
 /// the issue note): up to 4 penetrating vertices (CoR; DQS 3) at 120-150°, none deeper than
 /// 0.14 h (DQS 0.13 h; with exactly two sweeps, the default until 2026-12-03: up to 6 and 4,
-/// 0.23 and 0.15 h), and the temporal ratio reaches 22
+/// 0.23 and 0.15 h); since Eq. 4's moments are taken over each part's own faces
+/// (2026-12-03), 3 and 5 (DQS frame 20, which further sweeps leave as they find it), 0.12 and
+/// 0.08 h deep; the temporal ratio reaches 23
 /// (the input folds over along `d̂` at the inner elbow, and a vertex the crease cut moves
 /// across jumps by about 2 h). Without the turn guard 15 and 9 faces turned at the crease's
 /// bottom (see
@@ -258,7 +260,7 @@ fn bending_capsule_fold() {
 /// 17 and 19; with `τ = 0`: CoR 30, DQS 22; before the buried band got the crease's
 /// intersection terms: CoR 57, DQS 61).
 fn volume_preserving_input(method: Method) {
-    volume_preserving_input_on("bending_capsule", method, 4);
+    volume_preserving_input_on("bending_capsule", method, 5);
 }
 
 /// [`volume_preserving_input`]'s checks on `scene` with at most `max_after` penetrating
@@ -360,7 +362,8 @@ fn the_lbs_folds_resolve_without_the_bulge_guard() {
 /// The bend with CoR and DQS input without the bulge guard: the same bounds as with it
 /// ([`volume_preserving_input`]; measured summed over the 31 frames 12 and 8 penetrating
 /// vertices, 10 and 9 with the guard; the worst frame 4 and 3 either way, at most 0.18 h
-/// deep; no face turned; with exactly two sweeps 23 and 21, the worst frame 6 and 4).
+/// deep; no face turned; with exactly two sweeps 23 and 21, the worst frame 6 and 4; since
+/// Eq. 4's moments are taken over each part's own faces, 2026-12-03, DQS's frame 20 keeps 5).
 #[test]
 fn volume_preserving_input_without_the_bulge_guard() {
     let free = FoldParams {
@@ -373,7 +376,7 @@ fn volume_preserving_input_without_the_bulge_guard() {
             let f = x.frame;
             assert_eq!(x.nan, 0, "{method:?} frame {f}: NaN");
             assert!(x.volume_error < 1e-4, "{method:?} frame {f}: volume");
-            assert!(x.after <= 4, "{method:?} frame {f}: {} left", x.after);
+            assert!(x.after <= 5, "{method:?} frame {f}: {} left", x.after);
             assert!(x.depth_after <= 0.5, "{method:?} frame {f}: depth");
             assert_eq!(x.turned.turned, 0, "{method:?} frame {f}: faces turned");
         }
@@ -528,9 +531,16 @@ fn native_frames(name: &str) -> usize {
 /// mapping regions whether the propagation reaches them or not (`contact::mapping`): the
 /// threshold no longer jumps there, and the capsule measures 1.89 at 31 frames and 3.93 at 76
 /// (its largest second difference now at vertex 2109, frame 63), the finger 2.07 at 91
-/// (vertex 1046, frame 63), still no penetrating vertex in either. The bounds below
-/// are those measurements with a margin, not the issue's targets: this test guards the state
-/// the issue note reports.
+/// (vertex 1046, frame 63), still no penetrating vertex in either. Since Eq. 4's moments are
+/// taken over each part's own faces: the capsule 1.76 and 4.31 (vertex 1867, frame 45), the
+/// finger 1.81 (vertex 2392, frame 84). The capsule's largest second differences at 76 frames
+/// are now kinks, not pops: a vertex entering the contact zone (Eq. 3: its depth reaches the
+/// threshold) goes from the profile's nearly constant displacement to following `S`, at `k̄`
+/// times its depth's rate (vertex 2109, frame 63: 0.033 h per frame before, 0.199 h after,
+/// the depth growing by 0.398 h per frame, `k̄ = 0.5`); such a step in velocity makes a second
+/// difference proportional to the frame step, the input's to its square, so the ratio grows
+/// with the frame count. The bounds below are those measurements with a margin, not the
+/// issue's targets: this test guards the state the issue note reports.
 #[test]
 fn lbs_folds_at_the_animations_frame_rate() {
     let frames = native_frames("bending_capsule");
@@ -544,54 +554,55 @@ fn lbs_folds_at_the_animations_frame_rate() {
 }
 
 /// Sweeps past the count while the folds' shared regions keep penetrating vertices
-/// (`with_max_passes`, by default up to 4 in all since 2026-12-03):
-/// `finger_long` sampled at 61 frames, without the bulge guard, keeps one penetrating vertex
-/// in frame 56 after its 2 sweeps, which a further sweep resolves; in frame 58, clear after 2,
-/// the further sweeps change nothing. (With the guard, the default, 2 sweeps leave none in
-/// either frame. Until the seam vertices joined the mapping regions, 2026-12-03, the case was
-/// frame 59: welded 3754, 0.37 h deep on the middle-distal crease cut, a zero-depth sample
-/// pinned where it is while its neighbours move; 2 sweeps now clear it.)
+/// (`with_max_passes`, by default up to 4 in all since 2026-12-03): the bending capsule with
+/// CoR input at 31 frames, defaults, keeps penetrating vertices after its 2 sweeps in frames 23,
+/// 29 and 30 (1, 2 and 4), which further sweeps resolve (3, 4 and 3 sweeps in all); in frame
+/// 15, clear after 2, the further sweeps change nothing. (The case moves with the pass's
+/// discrete decisions: until Eq. 4's moments were taken over each part's own faces,
+/// 2026-12-03, it was `finger_long` without the bulge guard, frame 56 of 61, which 2 sweeps
+/// now clear, and frame 59 before the seam vertices joined the mapping regions.)
 #[test]
 fn further_sweeps_resolve_what_two_leave() {
     use contact_skin::selfcontact::pass::DEFAULT_MAX_FOLD_PASSES;
-    let l = load("finger_long", 61);
-    let free = FoldParams {
-        bulge_guard: false,
-        ..FoldParams::default()
-    };
-    let exact = self_pass_with(&l, &[], free).with_passes(2);
-    let further = self_pass_with(&l, &[], free)
+    let l = load_with("bending_capsule", 31, Method::Cor);
+    let exact = self_pass(&l, &[]).with_passes(2);
+    let further = self_pass(&l, &[])
         .with_passes(2)
         .with_max_passes(DEFAULT_MAX_FOLD_PASSES);
-    for f in [58, 56] {
+    for f in [15, 23, 29, 30] {
         let pose = l.rig.pose_at(Some(0), l.times[f]);
+        let skinned = l.frame_normals(f);
         let (mut two, mut more) = (l.frame(f), l.frame(f));
-        let r2 = exact.run(&l.rig, &pose, &mut two).expect("pass runs");
-        let rm = further.run(&l.rig, &pose, &mut more).expect("pass runs");
+        let r2 = exact
+            .run_with_normals(&l.rig, &pose, &mut two, &skinned)
+            .expect("pass runs");
+        let rm = further
+            .run_with_normals(&l.rig, &pose, &mut more, &skinned)
+            .expect("pass runs");
         let (p2, pm) = (penetration(&l, 0, &two[0]), penetration(&l, 0, &more[0]));
         println!(
             "frame {f}: {} sweeps leave {} penetrating, {} sweeps leave {}",
             r2.sweeps, p2.vertices, rm.sweeps, pm.vertices
         );
         assert_eq!(r2.sweeps, 2);
-        assert_eq!(
-            pm.vertices, 0,
-            "frame {f}: further sweeps leave {}",
-            pm.vertices
-        );
-        if f == 56 {
-            assert!(
-                p2.vertices > 0,
-                "frame 56 is no longer a case for further sweeps"
-            );
-            assert!(rm.sweeps > 2);
-        } else {
+        if f == 15 {
             assert_eq!((p2.vertices, rm.sweeps), (0, 2));
             assert_eq!(
                 two, more,
                 "frame {f}: clear after 2 sweeps, nothing more runs"
             );
+        } else {
+            assert!(
+                p2.vertices > 0,
+                "frame {f} is no longer a case for further sweeps"
+            );
+            assert!(rm.sweeps > 2);
         }
+        assert_eq!(
+            pm.vertices, 0,
+            "frame {f}: further sweeps leave {}",
+            pm.vertices
+        );
     }
 }
 
@@ -1222,15 +1233,20 @@ fn map_points(s: &Matrix4<f64>, bodies: &[Vec<Point3<f64>>]) -> Vec<Vec<Point3<f
 /// finger (welded 3154, frame 27, the middle-distal fold) is, over 31 frames, the only
 /// difference between the images' mapping regions, and the zones' threshold spreads it.
 ///
+/// Since Eq. 4's moments are taken over each part's own faces (also 2026-12-03; they took in
+/// the other part's faces along the seam): 8.9e-2, 3.4e-5 and 9.7e-5 h through `x = 0`,
+/// 6.0e-2, 2.8e-3 and 0.11 h through the tilted plane, 8.4e-2, 2.7e-3 and 0.13 h under the
+/// rotation.
+///
 /// The bounds guard these measurements.
 #[test]
 fn a_fold_and_its_mirror_image_agree() {
     let tilted = Vector3::new(1.0, 2.0, 3.0);
     let turn = nalgebra::Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(tilted), 1.0);
     let maps = [
-        ("plane x = 0", reflection(Vector3::x()), [0.1, 1e-3, 2e-3]),
+        ("plane x = 0", reflection(Vector3::x()), [0.15, 1e-3, 2e-3]),
         ("tilted plane", reflection(tilted), [0.2, 1e-2, 0.25]),
-        ("rotation", turn.to_homogeneous(), [0.2, 0.03, 0.25]),
+        ("rotation", turn.to_homogeneous(), [0.2, 1e-2, 0.25]),
     ];
     for (label, s, bounds) in maps {
         for (name, bound) in ["finger", "mouth", "bending_capsule"]

@@ -348,7 +348,10 @@ fn contact_zones(
         reach,
     });
     let samples: [zones::SideSamples; 2] = [0, 1].map(|k| inputs[k].samples());
-    let moments = [0, 1].map(|k| zones::depth_moments(sides[k].mesh.triangles(), &samples[k]));
+    let moments = [0, 1].map(|k| {
+        let mesh = &sides[k].mesh;
+        zones::depth_moments(mesh.triangles(), mesh.index().faces(), &samples[k])
+    });
     let (threshold, mean_depth, depth_deviation) = zones::threshold(moments, criterion.tau);
     let zones = [0, 1].map(|k| zones::zone(&inputs[k], &samples[k], threshold, criterion.guard));
     // The samples move into the sides (no copy).

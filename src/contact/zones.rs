@@ -306,11 +306,13 @@ impl SideInput<'_, '_, '_> {
 }
 
 /// Area-weighted first and second moments of `δ·n'` over the projected mapping region of one
-/// side (faces with at least one mapped corner, clipped at the boundary points; linear data
-/// integrated exactly).
-pub fn depth_moments(triangles: &[[u32; 3]], samples: &SideSamples) -> [f64; 3] {
+/// side (its `faces` with at least one mapped corner, clipped at the boundary points; linear
+/// data integrated exactly). Only the side's own faces: two parts of one mesh share the
+/// crease cut's vertices, whose samples would otherwise bring the other part's faces along
+/// that seam into this side's region.
+pub fn depth_moments(triangles: &[[u32; 3]], faces: &[u32], samples: &SideSamples) -> [f64; 3] {
     let mut m = [0.0; 3];
-    for t in triangles {
+    for t in faces.iter().map(|&f| &triangles[f as usize]) {
         if !t.iter().any(|&v| samples.vertices.contains(v as usize)) {
             continue;
         }
@@ -814,5 +816,53 @@ mod tests {
         // The second insert at vertex 3 replaced the first.
         assert_ne!(at(0.0), at(1.0));
         assert_eq!(store.get(3), Some(&at(1.0)));
+    }
+
+    /// Eq. 4's moments integrate over the side's own faces. Two parts of one mesh share the
+    /// crease cut's vertices (here the edge `x = 0` of a square in `z = 0` and of a square
+    /// in the plane `x = z` below it), so the other part's faces have sampled corners too: with
+    /// every vertex sampled at the depth `1 + x` (`S` taken at the vertices themselves), the
+    /// square's moments are its own integrals (area 1, mean depth 1.5, second moment 7/3), not
+    /// the whole mesh's (area `1 + √2`).
+    #[test]
+    fn depth_moments_integrate_over_the_sides_own_faces() {
+        let p = Point3::new;
+        let positions = [
+            p(0.0, 0.0, 0.0),
+            p(0.0, 1.0, 0.0),
+            p(1.0, 0.0, 0.0),
+            p(1.0, 1.0, 0.0),
+            p(-1.0, 0.0, -1.0),
+            p(-1.0, 1.0, -1.0),
+        ];
+        let triangles = [[0, 2, 3], [0, 3, 1], [0, 1, 5], [0, 5, 4]];
+        let mut samples = SideSamples {
+            vertices: VertexSamples::new(positions.len()),
+            ..Default::default()
+        };
+        for (v, &q) in positions.iter().enumerate() {
+            let sample = SurfaceSample {
+                point: q,
+                own_normal: Vector3::z(),
+                mapping: crate::contact::mapping::Mapping {
+                    target: q,
+                    target_normal: -Vector3::z(),
+                },
+                surface_point: q,
+                surface_normal: Vector3::z(),
+                depth: 1.0 + q.x,
+                safeguard: 1.0,
+            };
+            samples.vertices.insert(v, sample);
+        }
+        let [area, first, second] = depth_moments(&triangles, &[0, 1], &samples);
+        assert!((area - 1.0).abs() < 1e-14, "area {area}");
+        assert!((first / area - 1.5).abs() < 1e-14, "mean {}", first / area);
+        assert!((second - 7.0 / 3.0).abs() < 1e-14, "second moment {second}");
+        let [whole, ..] = depth_moments(&triangles, &[0, 1, 2, 3], &samples);
+        assert!(
+            (whole - 1.0 - 2f64.sqrt()).abs() < 1e-14,
+            "whole mesh {whole}"
+        );
     }
 }
