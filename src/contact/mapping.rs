@@ -521,16 +521,7 @@ mod tests {
     #[test]
     fn seam_vertices_of_one_mesh_join_the_mapping_region_at_depth_zero() {
         use crate::intersect::{IntersectionRegion, MeshIndex, RegionStats, Side};
-        let p = Point3::new;
-        let positions = vec![
-            p(0.0, 0.0, 0.0),
-            p(0.0, 1.0, 0.0),
-            p(1.0, 0.0, 0.0),
-            p(1.0, 1.0, 0.0),
-            p(-1.0, 0.0, -1.0),
-            p(-1.0, 1.0, -1.0),
-        ];
-        let triangles = vec![[0, 2, 3], [0, 3, 1], [0, 1, 5], [0, 5, 4]];
+        let (positions, triangles) = crate::contact::fixtures::folded_square();
         let [a, b] =
             MeshIndex::self_contact_parts(&positions, &triangles, &[1, 1, 2, 2]).expect("parts");
         let (a, b) = (

@@ -826,16 +826,7 @@ mod tests {
     /// the whole mesh's (area `1 + √2`).
     #[test]
     fn depth_moments_integrate_over_the_sides_own_faces() {
-        let p = Point3::new;
-        let positions = [
-            p(0.0, 0.0, 0.0),
-            p(0.0, 1.0, 0.0),
-            p(1.0, 0.0, 0.0),
-            p(1.0, 1.0, 0.0),
-            p(-1.0, 0.0, -1.0),
-            p(-1.0, 1.0, -1.0),
-        ];
-        let triangles = [[0, 2, 3], [0, 3, 1], [0, 1, 5], [0, 5, 4]];
+        let (positions, triangles) = crate::contact::fixtures::folded_square();
         let mut samples = SideSamples {
             vertices: VertexSamples::new(positions.len()),
             ..Default::default()
