@@ -534,13 +534,15 @@ fn native_frames(name: &str) -> usize {
 /// (vertex 1046, frame 63), still no penetrating vertex in either. Since Eq. 4's moments are
 /// taken over each part's own faces: the capsule 1.76 and 4.31 (vertex 1867, frame 45), the
 /// finger 1.81 (vertex 2392, frame 84). The capsule's largest second differences at 76 frames
-/// are now kinks, not pops: a vertex entering the contact zone (Eq. 3: its depth reaches the
-/// threshold) goes from the profile's nearly constant displacement to following `S`, at `k̄`
-/// times its depth's rate (vertex 2109, frame 63: 0.033 h per frame before, 0.199 h after,
-/// the depth growing by 0.398 h per frame, `k̄ = 0.5`); such a step in velocity makes a second
-/// difference proportional to the frame step, the input's to its square, so the ratio grows
-/// with the frame count. The bounds below are those measurements with a margin, not the
-/// issue's targets: this test guards the state the issue note reports.
+/// are in frame 45, where the threshold still dips (the seam's own faces with all corners on
+/// the cut lie at depth 0 and come and go with it), and kinks: a vertex entering the contact
+/// zone (Eq. 3: its depth reaches the threshold) goes from the profile's nearly constant
+/// displacement to following `S`, at `k̄` times its depth's rate (vertex 2109, frame 63, before
+/// the change: 0.033 h per frame before, 0.199 h after, the depth growing by 0.398 h per frame,
+/// `k̄ = 0.5`); such a step in velocity makes a second difference proportional to the frame
+/// step, the input's to its square, so the ratio of a kink grows with the frame count. The
+/// bounds below are those measurements with a margin, not the issue's targets: this test
+/// guards the state the issue note reports.
 #[test]
 fn lbs_folds_at_the_animations_frame_rate() {
     let frames = native_frames("bending_capsule");
