@@ -16,28 +16,6 @@ pub mod direction;
 pub mod mapping;
 pub mod zones;
 
-/// Meshes shared by the unit tests of the contact steps.
-#[cfg(test)]
-mod fixtures {
-    use nalgebra::Point3;
-
-    /// Two parts of one mesh meeting at a seam (the edge `x = z = 0`, vertices 0 and 1): the
-    /// unit square in the plane `z = 0` (faces 0 and 1) and a square leaning away below it in
-    /// the plane `x = z`, `x ≤ 0` (faces 2 and 3).
-    pub fn folded_square() -> (Vec<Point3<f64>>, Vec<[u32; 3]>) {
-        let p = Point3::new;
-        let positions = vec![
-            p(0.0, 0.0, 0.0),
-            p(0.0, 1.0, 0.0),
-            p(1.0, 0.0, 0.0),
-            p(1.0, 1.0, 0.0),
-            p(-1.0, 0.0, -1.0),
-            p(-1.0, 1.0, -1.0),
-        ];
-        (positions, vec![[0, 2, 3], [0, 3, 1], [0, 1, 5], [0, 5, 4]])
-    }
-}
-
 use crate::intersect::{
     IntersectError, IntersectionRegion, IntersectionStats, Intersections, PosedMesh, Side,
 };
@@ -643,4 +621,26 @@ fn reach_of(a: &PosedMesh, b: &PosedMesh) -> f64 {
     let Some(first) = it.next() else { return 1.0 };
     let all = it.fold(*first, |acc, x| acc.union(x));
     (all.max - all.min).norm().max(1e-9)
+}
+
+/// Meshes shared by the unit tests of the contact steps.
+#[cfg(test)]
+mod fixtures {
+    use nalgebra::Point3;
+
+    /// Two parts of one mesh meeting at a seam (the edge `x = z = 0`, vertices 0 and 1): the
+    /// unit square in the plane `z = 0` (faces 0 and 1) and a square leaning away below it in
+    /// the plane `x = z`, `x ≤ 0` (faces 2 and 3).
+    pub fn folded_square() -> (Vec<Point3<f64>>, Vec<[u32; 3]>) {
+        let p = Point3::new;
+        let positions = vec![
+            p(0.0, 0.0, 0.0),
+            p(0.0, 1.0, 0.0),
+            p(1.0, 0.0, 0.0),
+            p(1.0, 1.0, 0.0),
+            p(-1.0, 0.0, -1.0),
+            p(-1.0, 1.0, -1.0),
+        ];
+        (positions, vec![[0, 2, 3], [0, 3, 1], [0, 1, 5], [0, 5, 4]])
+    }
 }
