@@ -11,10 +11,11 @@ use std::time::Instant;
 use contact_skin::mesh::operators::{mean_edge_length, vertex_normals, NormalWeighting};
 use contact_skin::mesh::signed_volume;
 use contact_skin::report::metrics::{
-    closest_point_on_triangle, hausdorff, inverted_faces, non_finite, penetrating_among,
-    penetrating_count, point_triangle_distance, residual_penetration, residual_penetration_bodies,
-    second_difference_ratio, solid_angle, surface_distance, turned_faces, volume_error,
-    winding_number, zone_distance, Body, InvertedFaces, Penetration, TurnedFaces, WindingNumber,
+    closest_point_on_triangle, displacement_step_ratio, hausdorff, inverted_faces, non_finite,
+    penetrating_among, penetrating_count, point_triangle_distance, residual_penetration,
+    residual_penetration_bodies, second_difference_ratio, solid_angle, surface_distance,
+    turned_faces, volume_error, winding_number, zone_distance, Body, InvertedFaces, Penetration,
+    TurnedFaces, WindingNumber,
 };
 use nalgebra::{Point3, Rotation3, Vector3};
 use parry3d_f64::math::Vector as PVec;
@@ -685,6 +686,74 @@ fn second_difference_ratio_is_one_on_identical_input_and_finds_a_pop() {
     assert_eq!(r.skipped, 3);
     assert!((r.ratio - 1.0).abs() < 1e-12);
     let r = second_difference_ratio(&input[..2], &input[..2]);
+    assert_eq!((r.ratio, r.frame), (1.0, None));
+}
+
+/// The displacement-step ratio tells a pop from a kink across frame rates: sampled twice as
+/// finely, a displacement continuous in time (a ramp that starts at a kink) keeps its ratio,
+/// a jump of the displacement doubles it; the second-difference ratio grows with both.
+#[test]
+fn displacement_step_ratio_keeps_a_kink_and_grows_with_a_pop() {
+    let (pos, _) = icosphere(1, 1.0, Point3::origin());
+    // The input translates at unit speed over the animation's unit time; vertex 5 is also
+    // displaced by `d(s)` along y.
+    let sample = |count: usize, d: &dyn Fn(f64) -> f64| -> [Vec<Vec<Point3<f64>>>; 2] {
+        let times = (0..count).map(|k| k as f64 / (count - 1) as f64);
+        let input: Vec<Vec<Point3<f64>>> = times
+            .clone()
+            .map(|s| pos.iter().map(|p| p + Vector3::new(s, 0.0, 0.0)).collect())
+            .collect();
+        let mut output = input.clone();
+        for (frame, s) in output.iter_mut().zip(times) {
+            frame[5].y += d(s);
+        }
+        [output, input]
+    };
+    let kink = |s: f64| 0.3 * (s - 0.4).max(0.0);
+    let pop = |s: f64| if s > 0.4 { 0.05 } else { 0.0 };
+    let ratio = |count: usize, d: &dyn Fn(f64) -> f64| {
+        let [output, input] = sample(count, d);
+        let r = displacement_step_ratio(&output, &input);
+        assert_eq!(r.vertex, Some(5), "{r:?}");
+        assert_eq!(r.skipped, 0);
+        (r, second_difference_ratio(&output, &input).ratio)
+    };
+    let [(k1, sk1), (k2, sk2)] = [11, 21].map(|n| ratio(n, &kink));
+    // The ramp's slope over the input's speed, at both rates.
+    assert!(
+        (k1.ratio - 0.3).abs() < 1e-9 && (k2.ratio - 0.3).abs() < 1e-9,
+        "{k1:?} {k2:?}"
+    );
+    let [(p1, sp1), (p2, sp2)] = [11, 21].map(|n| ratio(n, &pop));
+    // The jump over the input's step: 0.05 / 0.1, then 0.05 / 0.05.
+    assert!(
+        (p1.ratio - 0.5).abs() < 1e-9 && (p2.ratio - 1.0).abs() < 1e-9,
+        "{p1:?} {p2:?}"
+    );
+    assert_eq!((p1.frame, p2.frame), (Some(4), Some(8)));
+    // A translating input has no second difference: both kinds of event give huge
+    // second-difference ratios, which do not tell them apart.
+    assert!(sk1 > 1e5 && sk2 > 1e5 && sp1 > 1e5 && sp2 > 1e5);
+
+    // Identical sequences: no step, ratio 0; a still input: 1 without a step, huge with one.
+    let [output, input] = sample(6, &|_| 0.0);
+    let r = displacement_step_ratio(&output, &input);
+    assert_eq!((r.ratio, r.output_max), (0.0, 0.0));
+    let still = vec![pos.clone(); 4];
+    assert_eq!(displacement_step_ratio(&still, &still).ratio, 1.0);
+    let mut moved = still.clone();
+    moved[2][0].x += 1e-3;
+    let r = displacement_step_ratio(&moved, &still);
+    assert!(r.ratio > 1e5 && r.ratio.is_finite(), "{r:?}");
+    assert_eq!((r.frame, r.vertex), (Some(1), Some(0)));
+
+    // Non-finite positions are skipped and counted (the two pairs the frame belongs to);
+    // a single frame has no pair.
+    let mut bad = output.clone();
+    bad[3][7] = Point3::new(f64::NAN, 0.0, 0.0);
+    let r = displacement_step_ratio(&bad, &input);
+    assert_eq!((r.skipped, r.ratio), (2, 0.0));
+    let r = displacement_step_ratio(&output[..1], &input[..1]);
     assert_eq!((r.ratio, r.frame), (1.0, None));
 }
 

@@ -1246,6 +1246,12 @@ fn pose_metrics_measure_what_was_written() {
     }
     assert!(m["penetrating_before"]["value"].as_u64() > Some(500), "{m}");
     assert_eq!(m["temporal"]["ratio"].as_f64(), Some(1.0));
+    // No displacement, no step.
+    assert_eq!(m["temporal"]["step_ratio"].as_f64(), Some(0.0));
+    assert!(
+        m["temporal"]["input_step_max_h"].as_f64() > Some(1.0),
+        "{m}"
+    );
 
     let q = run(&folded, &["--self-contact"]);
     let m = &q["metrics"];
@@ -1294,6 +1300,17 @@ fn pose_metrics_measure_what_was_written() {
     assert!(
         (ratio - reported).abs() < 1e-3 * reported,
         "{ratio} from the files, {reported} reported"
+    );
+    let step = metrics::displacement_step_ratio(&outputs, &inputs);
+    let temporal = &m["temporal"];
+    assert!(
+        (step.ratio - temporal["step_ratio"].as_f64().expect("step ratio")).abs()
+            < 1e-3 * step.ratio,
+        "{step:?} from the files, {temporal} reported"
+    );
+    assert_eq!(
+        temporal["step_frame"].as_u64(),
+        step.frame.map(|f| f as u64)
     );
     assert_eq!(m["penetrating_after"]["value"].as_u64(), Some(0), "{m}");
     assert!(m["volume_error"]["value"].as_f64() < Some(1e-4), "{m}");

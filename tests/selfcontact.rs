@@ -59,6 +59,8 @@ struct Row {
 struct Run {
     rows: Vec<Row>,
     ratio: f64,
+    /// `metrics::displacement_step_ratio` of the output against the input.
+    step_ratio: f64,
     /// Largest second difference of the output (absolute).
     output_max: f64,
     pairs: Vec<(usize, String)>,
@@ -165,6 +167,7 @@ fn run_full(
         outs.push(out.concat());
     }
     let sd = metrics::second_difference_ratio(&outs, &ins);
+    let step = metrics::displacement_step_ratio(&outs, &ins);
     for r in rows.iter().filter(|r| r.folds > 0) {
         let t = &r.turned;
         println!(
@@ -188,9 +191,14 @@ fn run_full(
         "{name}: second-difference ratio {:.2} (output {:.2e} at frame {:?}, vertex {:?}; input {:.2e})",
         sd.ratio, sd.output_max, sd.frame, sd.vertex, sd.input_max
     );
+    println!(
+        "{name}: displacement-step ratio {:.3} (step {:.2e} from frame {:?}, vertex {:?}; input {:.2e})",
+        step.ratio, step.output_max, step.frame, step.vertex, step.input_max
+    );
     Run {
         rows,
         ratio: sd.ratio,
+        step_ratio: step.ratio,
         output_max: sd.output_max,
         pairs: pass.pairs(),
         steepness,
@@ -543,16 +551,40 @@ fn native_frames(name: &str) -> usize {
 /// step, the input's to its square, so the ratio of a kink grows with the frame count. The
 /// bounds below are those measurements with a margin, not the issue's targets: this test
 /// guards the state the issue note reports.
+///
+/// What tells a pop from a kink is the displacement's continuity in time
+/// (`metrics::displacement_step_ratio`: the displacement's largest change in one frame over
+/// the input's fastest vertex's motion in one frame), which keeps its value as the animation
+/// is sampled more finely where the displacement is continuous and grows with the frame count
+/// where it jumps. Measured (2026-12-03): the capsule 0.249 at 31 frames, 0.267 at 76 (0.276
+/// at 151), the finger 0.058 and 0.059 at 91: continuous, the largest steps where the folds
+/// deepen fastest; against the capsule with CoR input 1.02 at 31 frames and 2.65 at 76, with
+/// DQS 1.55 and 3.95 (pops of 3-5 h, the issue note's), and the mouth 0.88 at 31 and 2.75 at
+/// 91 (its corners' crease vertices, 0.27 h; 0.49 and 0.62 with `free_isolated_crease`).
 #[test]
 fn lbs_folds_at_the_animations_frame_rate() {
-    let frames = native_frames("bending_capsule");
-    assert_eq!(frames, 76);
-    let capsule = run("bending_capsule", frames, &[]);
-    check("bending_capsule", &capsule, 0, 0, 4.5);
-    let frames = native_frames("finger");
-    assert_eq!(frames, 91);
-    let finger = run("finger", frames, &[]);
-    check("finger", &finger, 0, 0, 2.4);
+    for (name, native, max_ratio) in [("bending_capsule", 76, 4.5), ("finger", 91, 2.4)] {
+        let frames = native_frames(name);
+        assert_eq!(frames, native);
+        let fine = run(name, frames, &[]);
+        check(name, &fine, 0, 0, max_ratio);
+        let coarse = run(name, 31, &[]);
+        // Continuous: never faster than the input's fastest vertex, and no growth with the
+        // frame count beyond the measured 7 % (a jump that makes the largest step at both
+        // rates grows it 2.45 times from 31 to 76 frames, 2.9 times to 91).
+        assert!(
+            fine.step_ratio < 1.0 && coarse.step_ratio < 1.0,
+            "{name}: displacement-step ratios {} and {}",
+            coarse.step_ratio,
+            fine.step_ratio
+        );
+        assert!(
+            fine.step_ratio < 1.15 * coarse.step_ratio,
+            "{name}: displacement-step ratio {} at 31 frames, {} at {frames}",
+            coarse.step_ratio,
+            fine.step_ratio
+        );
+    }
 }
 
 /// Sweeps past the count while the folds' shared regions keep penetrating vertices

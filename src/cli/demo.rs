@@ -110,6 +110,11 @@ struct SelfContactRow {
     /// `MEASURING.md`'s temporal smoothness: the output's largest second difference over the
     /// input's (a pop shows as a large ratio); `None` with fewer than three frames.
     temporal_ratio: Option<f64>,
+    /// Continuity: the largest change of the passes' displacement from one frame to the next
+    /// over the input's fastest vertex's motion in one frame (see
+    /// [`metrics::displacement_step_ratio`]: it grows with the frame count where the output
+    /// pops); `None` with fewer than three frames.
+    step_ratio: Option<f64>,
     /// Median time per frame: skinning and both passes (ms).
     median_frame_ms: f64,
     /// Median time of the self-contact pass per frame (ms).
@@ -454,6 +459,7 @@ fn run_self_contact(
         .map(|(s, w)| (s.timings, w))
         .collect();
     let settings = run.self_contact.as_ref().map(|s| &s.settings);
+    let temporal = temporal(&inputs, &timed, h);
     Ok(Some(SelfContactRow {
         scene: scene.name().to_string(),
         method: method.to_string(),
@@ -476,7 +482,8 @@ fn run_self_contact(
         worst_volume_error,
         inverted_faces: turned.against_input,
         turned_faces: turned,
-        temporal_ratio: temporal_ratio(&inputs, &timed, h),
+        temporal_ratio: temporal.map(|t| t.ratio),
+        step_ratio: temporal.map(|t| t.step_ratio),
         median_frame_ms: median(timed.iter().map(|(_, ms)| *ms).collect()),
         median_self_ms: median(timed.iter().map(|(f, _)| f.self_wall * 1e3).collect()),
         fold_ms: median_folds(&with_fold),
@@ -486,15 +493,15 @@ fn run_self_contact(
     }))
 }
 
-/// The second-difference ratio of the run (`timed`'s output against `inputs`, welded).
-fn temporal_ratio(
+/// The run's temporal measures (`timed`'s output against `inputs`, welded).
+fn temporal(
     inputs: &[quality::Bodies],
     timed: &[(ContactFrame, f64)],
     h: f64,
-) -> Option<f64> {
+) -> Option<quality::Temporal> {
     let input: Vec<_> = inputs.iter().map(|b| b.concat()).collect();
     let output: Vec<_> = timed.iter().map(|(f, _)| f.positions.concat()).collect();
-    quality::temporal(h, &input, &output).map(|t| t.ratio)
+    quality::temporal(h, &input, &output)
 }
 
 /// The frame whose penetration is deepest (the first of equals).
@@ -678,7 +685,7 @@ fn print_self_contact_table(rows: &[SelfContactRow]) {
     }
     println!();
     println!(
-        "{:<16} {:<6} {:<6} {:>11} {:>32} {:>10} {:>9} {:>7} {:>8} {:>9} {:>9}",
+        "{:<16} {:<6} {:<6} {:>11} {:>32} {:>10} {:>9} {:>7} {:>8} {:>6} {:>9} {:>9}",
         "scene",
         "anim",
         "skin",
@@ -688,13 +695,14 @@ fn print_self_contact_table(rows: &[SelfContactRow]) {
         "inverted",
         "turned",
         "2nd diff",
+        "step",
         "ms/frame",
         "self ms"
     );
     for r in rows {
         let (b, f) = (r.penetration_before, r.penetration_after);
         println!(
-            "{:<16} {:<6} {:<6} {:>4}/{:<6} {:>32} {:>10.1e} {:>9} {:>7} {:>8} {:>9.2} {:>9.2}",
+            "{:<16} {:<6} {:<6} {:>4}/{:<6} {:>32} {:>10.1e} {:>9} {:>7} {:>8} {:>6} {:>9.2} {:>9.2}",
             r.scene,
             r.animation,
             r.method,
@@ -709,6 +717,7 @@ fn print_self_contact_table(rows: &[SelfContactRow]) {
             r.turned_faces.turned,
             r.temporal_ratio
                 .map_or("-".to_string(), |x| format!("{x:.2}")),
+            r.step_ratio.map_or("-".to_string(), |x| format!("{x:.2}")),
             r.median_frame_ms,
             r.median_self_ms
         );
@@ -719,7 +728,9 @@ fn print_self_contact_table(rows: &[SelfContactRow]) {
          faces (turned against the input) and turned faces (against the input and the \
          skinning's normals: LBS's loop is turned in the input) at that frame; 2nd diff: the \
          output's largest second difference over the input's, over the frames (a pop shows \
-         as a large ratio); OBJ frames in <scene>/contact_obj (CoR: contact_obj_cor), baked \
+         as a large ratio); step: the largest change of the displacement from one frame to \
+         the next over the input's fastest vertex's motion in one frame (it grows with the \
+         frame count where the output pops, not where it is continuous); OBJ frames in <scene>/contact_obj (CoR: contact_obj_cor), baked \
          <scene>/<anim>.contact.glb (CoR: .contact.cor.glb))"
     );
 }

@@ -1,7 +1,7 @@
 //! `pose --metrics`: the quality measures of `MEASURING.md` on a posed run, each frame against
 //! its skinned input (residual penetration, volume error, inverted and turned faces,
-//! non-finite values) and the run's temporal smoothness (second-difference ratio). The demo
-//! measures its scenes with the same functions.
+//! non-finite values) and the run's temporal smoothness (second-difference ratio) and
+//! continuity (displacement-step ratio). The demo measures its scenes with the same functions.
 
 use contact_skin::frames::Precomputed;
 use contact_skin::mesh::operators::{mean_edge_length, vertex_normals, NormalWeighting};
@@ -173,12 +173,18 @@ pub fn temporal(
 ) -> Option<Temporal> {
     (outputs.len() >= 3).then(|| {
         let s = metrics::second_difference_ratio(outputs, inputs);
+        let d = metrics::displacement_step_ratio(outputs, inputs);
         Temporal {
             ratio: s.ratio,
             output_max_h: s.output_max / h,
             input_max_h: s.input_max / h,
             frame: s.frame,
             vertex: s.vertex,
+            step_ratio: d.ratio,
+            step_max_h: d.output_max / h,
+            input_step_max_h: d.input_max / h,
+            step_frame: d.frame,
+            step_vertex: d.vertex,
         }
     })
 }
@@ -197,6 +203,20 @@ pub struct Temporal {
     pub frame: Option<usize>,
     /// Its welded vertex, counted over the bodies in order.
     pub vertex: Option<usize>,
+    /// Continuity: the largest change from one frame to the next of the displacement the
+    /// passes add to the input, over the input's largest motion in one frame
+    /// ([`metrics::displacement_step_ratio`]). It keeps its value over frame counts where the
+    /// displacement is continuous (kinks included) and grows with the frame count where it
+    /// pops.
+    pub step_ratio: f64,
+    /// The displacement's largest change in one frame, in `h`.
+    pub step_max_h: f64,
+    /// The input's largest motion in one frame, in `h`.
+    pub input_step_max_h: f64,
+    /// First frame of the pair where the displacement's largest change occurs.
+    pub step_frame: Option<usize>,
+    /// Its welded vertex.
+    pub step_vertex: Option<usize>,
 }
 
 /// The measures of a run.

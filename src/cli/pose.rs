@@ -99,7 +99,12 @@ pub struct Args {
     /// vertices before and after, largest depth, volume error, inverted and turned faces,
     /// non-finite values, and the run's temporal second-difference ratio (the output's largest
     /// second difference over the input's: where the output pops it grows with the square of
-    /// `--frames`, so compare runs at one frame count); printed and in the JSON summary
+    /// `--frames`, where a vertex enters a contact zone (a kink) in proportion to it, so
+    /// compare runs at one frame count) and its displacement-step ratio (the largest change of
+    /// the passes' displacement from one frame to the next over the input's fastest vertex's
+    /// motion in one frame: it keeps its value over frame counts where the displacement is
+    /// continuous, kinks included, and grows in proportion to `--frames` where it pops, so
+    /// compare runs at two frame counts); printed and in the JSON summary
     /// (`metrics`). Keeps every frame's welded positions, input and output, in memory (48
     /// bytes per vertex per frame).
     #[arg(long)]
@@ -561,12 +566,18 @@ fn print_self_contact(s: &Summary) {
 
 /// `--metrics` in words: each measure's worst frame.
 fn print_metrics(m: &RunMetrics) {
+    let at = |x: Option<usize>| x.map_or("-".into(), |x| x.to_string());
     let temporal = m.temporal.map_or("fewer than 3 frames".to_string(), |t| {
         format!(
-            "{:.2} (frame {}, vertex {})",
+            "{:.2} (frame {}, vertex {}); displacement-step ratio {:.3} ({:.3} h from frame {} to the next, vertex {}; the input's fastest vertex {:.3} h per frame)",
             t.ratio,
-            t.frame.map_or("-".into(), |f| f.to_string()),
-            t.vertex.map_or("-".into(), |v| v.to_string())
+            at(t.frame),
+            at(t.vertex),
+            t.step_ratio,
+            t.step_max_h,
+            at(t.step_frame),
+            at(t.step_vertex),
+            t.input_step_max_h,
         )
     });
     println!(

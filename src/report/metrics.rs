@@ -1,6 +1,6 @@
 //! Per-frame error metrics of `MEASURING.md` ("Error metrics"): residual penetration through the
 //! generalized winding number, volume error, inverted faces, temporal smoothness (second
-//! differences), point-to-surface and Hausdorff distances, non-finite values.
+//! differences) and continuity (the displacement's steps), point-to-surface and Hausdorff distances, non-finite values.
 //!
 //! **Units.** Every length is returned in the absolute units of the positions given. Reports
 //! divide them by `h_rest`, the mean edge length of the rest mesh
@@ -1411,6 +1411,19 @@ pub fn second_difference_ratio(
 ) -> SecondDifference {
     let (output_max, at, skipped_out) = max_second_difference(output_frames);
     let (input_max, _, skipped_in) = max_second_difference(input_frames);
+    SecondDifference {
+        ratio: guarded_ratio(output_max, input_max, still_floor(input_frames)),
+        output_max,
+        input_max,
+        frame: at.map(|(t, _)| t),
+        vertex: at.map(|(_, v)| v),
+        skipped: skipped_out + skipped_in,
+    }
+}
+
+/// The level below which an input's motion is round-off: `1e-9` times the diagonal of the
+/// bounding box of all its finite positions (at least the smallest positive number).
+fn still_floor(input_frames: &[Vec<Point3<f64>>]) -> f64 {
     let (mut lo, mut hi) = (
         Vector3::repeat(f64::INFINITY),
         Vector3::repeat(f64::NEG_INFINITY),
@@ -1420,25 +1433,93 @@ pub fn second_difference_ratio(
         hi = hi.sup(&p.coords);
     }
     let diagonal = if lo.x <= hi.x { (hi - lo).norm() } else { 0.0 };
-    let floor = if diagonal.is_finite() && diagonal > 0.0 {
+    if diagonal.is_finite() && diagonal > 0.0 {
         (1e-9 * diagonal).max(f64::MIN_POSITIVE)
     } else {
         f64::MIN_POSITIVE
-    };
-    let ratio = if input_max > floor {
-        output_max / input_max
-    } else if output_max <= floor {
+    }
+}
+
+/// `output / input`, with the still-input guard of [`second_difference_ratio`]: 1 when both
+/// are at most `floor`, `output / floor` when only the input is; never NaN.
+fn guarded_ratio(output: f64, input: f64, floor: f64) -> f64 {
+    let ratio = if input > floor {
+        output / input
+    } else if output <= floor {
         1.0
     } else {
-        output_max / floor
+        output / floor
     };
-    SecondDifference {
-        ratio: if ratio.is_nan() { f64::INFINITY } else { ratio },
+    if ratio.is_nan() {
+        f64::INFINITY
+    } else {
+        ratio
+    }
+}
+
+/// Largest frame-to-frame change of an animation's displacement against its input (see
+/// [`displacement_step_ratio`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct DisplacementStep {
+    /// `output_max / input_max` (with the guards of [`second_difference_ratio`]).
+    pub ratio: f64,
+    /// Largest `|D_{t+1} - D_t|`, `D_t = output_t - input_t` (absolute units).
+    pub output_max: f64,
+    /// Largest `|x_{t+1} - x_t|` of the input: its fastest vertex's motion in one frame.
+    pub input_max: f64,
+    /// First frame `t` of the pair where the output's maximum occurs (`None` without a pair).
+    pub frame: Option<usize>,
+    /// Vertex at which it occurs.
+    pub vertex: Option<usize>,
+    /// Pairs `(t, vertex)` skipped because a position is not finite.
+    pub skipped: usize,
+}
+
+/// Temporal continuity of the displacement a deformer adds to its input: the largest change
+/// from one frame to the next of `D_t = output_t - input_t` over the vertices, divided by the
+/// largest motion of an input vertex from one frame to the next.
+///
+/// Both shrink in proportion to the frame step when `D` is continuous in time, so the ratio
+/// stays as the animation is sampled more finely; a *pop* (a jump of `D` between two frames)
+/// keeps its size while the input's motion per frame shrinks: its ratio grows in proportion
+/// to the frame count. A *kink* (a step in the velocity of `D`, such as a vertex entering a
+/// contact zone whose threshold is on the depth, 2021 Eq. 3) leaves this ratio and raises the
+/// [`second_difference_ratio`], whose input term shrinks with the square of the step. Compare
+/// runs of one animation at two frame counts: a ratio that keeps its value is continuous, one
+/// that grows with the frame count pops.
+///
+/// Vertex `v` of pair `t` is used when it exists in both frames of both sequences and is
+/// finite there (others are counted in `skipped`).
+pub fn displacement_step_ratio(
+    output_frames: &[Vec<Point3<f64>>],
+    input_frames: &[Vec<Point3<f64>>],
+) -> DisplacementStep {
+    let (mut output_max, mut input_max, mut at, mut skipped) = (0.0, 0.0f64, None, 0);
+    let count = output_frames.len().min(input_frames.len());
+    for t in 1..count {
+        let (o0, o1) = (&output_frames[t - 1], &output_frames[t]);
+        let (i0, i1) = (&input_frames[t - 1], &input_frames[t]);
+        let n = o0.len().min(o1.len()).min(i0.len()).min(i1.len());
+        for v in 0..n {
+            if ![o0[v], o1[v], i0[v], i1[v]].iter().all(finite) {
+                skipped += 1;
+                continue;
+            }
+            let step = ((o1[v] - i1[v]) - (o0[v] - i0[v])).norm();
+            input_max = input_max.max((i1[v] - i0[v]).norm());
+            if step > output_max || at.is_none() {
+                output_max = step;
+                at = Some((t - 1, v));
+            }
+        }
+    }
+    DisplacementStep {
+        ratio: guarded_ratio(output_max, input_max, still_floor(input_frames)),
         output_max,
         input_max,
         frame: at.map(|(t, _)| t),
         vertex: at.map(|(_, v)| v),
-        skipped: skipped_out + skipped_in,
+        skipped,
     }
 }
 
