@@ -348,10 +348,7 @@ fn contact_zones(
         reach,
     });
     let samples: [zones::SideSamples; 2] = [0, 1].map(|k| inputs[k].samples());
-    let moments = [0, 1].map(|k| {
-        let mesh = &sides[k].mesh;
-        zones::depth_moments(mesh.triangles(), mesh.index().faces(), &samples[k])
-    });
+    let moments = [0, 1].map(|k| side_moments(&sides[k], &samples[k]));
     let (threshold, mean_depth, depth_deviation) = zones::threshold(moments, criterion.tau);
     let zones = [0, 1].map(|k| zones::zone(&inputs[k], &samples[k], threshold, criterion.guard));
     // The samples move into the sides (no copy).
@@ -375,6 +372,14 @@ fn contact_zones(
         mean_depth,
         depth_deviation,
     }
+}
+
+/// Eq. 4's depth moments of one side, over its own faces: for a part of one mesh
+/// (self-contact) the part's, not the whole mesh's, whose other part's faces along the seam
+/// have sampled corners at depth 0 ([`zones::depth_moments`]).
+fn side_moments(side: &SideFrame, samples: &zones::SideSamples) -> [f64; 3] {
+    let mesh = side.mesh;
+    zones::depth_moments(mesh.triangles(), mesh.index().faces(), samples)
 }
 
 fn pair_direction(
@@ -623,10 +628,38 @@ fn reach_of(a: &PosedMesh, b: &PosedMesh) -> f64 {
     (all.max - all.min).norm().max(1e-9)
 }
 
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::intersect::MeshIndex;
+
+    /// A part of one mesh takes Eq. 4's moments over its own faces: the folded square's flat
+    /// part, every vertex sampled at depth `1 + x`, has area 1 and mean depth 1.5, although
+    /// the other part's faces (area `√2`) have sampled corners too.
+    #[test]
+    fn a_parts_moments_are_over_its_own_faces() {
+        let (positions, triangles) = fixtures::folded_square();
+        let [a, _] =
+            MeshIndex::self_contact_parts(&positions, &triangles, &[1, 1, 2, 2]).expect("parts");
+        let a = a.pose(&positions).expect("A");
+        let normals = vec![Vector3::z(); positions.len()];
+        let side = SideFrame {
+            mesh: &a,
+            normals: &normals,
+            hittable: None,
+        };
+        let samples = fixtures::sampled_at_depth(&positions, |q| 1.0 + q.x);
+        let [area, first, _] = side_moments(&side, &samples);
+        assert!((area - 1.0).abs() < 1e-14, "area {area}");
+        assert!((first / area - 1.5).abs() < 1e-14, "mean {}", first / area);
+    }
+}
+
 /// Meshes shared by the unit tests of the contact steps.
 #[cfg(test)]
 mod fixtures {
-    use nalgebra::Point3;
+    use super::{mapping, zones};
+    use nalgebra::{Point3, Vector3};
 
     /// Two parts of one mesh meeting at a seam (the edge `x = z = 0`, vertices 0 and 1): the
     /// unit square in the plane `z = 0` (faces 0 and 1) and a square leaning away below it in
@@ -642,5 +675,33 @@ mod fixtures {
             p(-1.0, 1.0, -1.0),
         ];
         (positions, vec![[0, 2, 3], [0, 3, 1], [0, 1, 5], [0, 5, 4]])
+    }
+
+    /// Every vertex sampled on a flat `S` through itself (normal `+z`) at `depth(position)`.
+    pub fn sampled_at_depth(
+        positions: &[Point3<f64>],
+        depth: impl Fn(&Point3<f64>) -> f64,
+    ) -> zones::SideSamples {
+        let mut samples = zones::SideSamples {
+            vertices: zones::VertexSamples::new(positions.len()),
+            ..Default::default()
+        };
+        for (v, q) in positions.iter().enumerate() {
+            let mapping = mapping::Mapping {
+                target: *q,
+                target_normal: -Vector3::z(),
+            };
+            let sample = zones::SurfaceSample {
+                point: *q,
+                own_normal: Vector3::z(),
+                mapping,
+                surface_point: *q,
+                surface_normal: Vector3::z(),
+                depth: depth(q),
+                safeguard: 1.0,
+            };
+            samples.vertices.insert(v, sample);
+        }
+        samples
     }
 }

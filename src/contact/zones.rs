@@ -827,25 +827,7 @@ mod tests {
     #[test]
     fn depth_moments_integrate_over_the_sides_own_faces() {
         let (positions, triangles) = crate::contact::fixtures::folded_square();
-        let mut samples = SideSamples {
-            vertices: VertexSamples::new(positions.len()),
-            ..Default::default()
-        };
-        for (v, &q) in positions.iter().enumerate() {
-            let sample = SurfaceSample {
-                point: q,
-                own_normal: Vector3::z(),
-                mapping: crate::contact::mapping::Mapping {
-                    target: q,
-                    target_normal: -Vector3::z(),
-                },
-                surface_point: q,
-                surface_normal: Vector3::z(),
-                depth: 1.0 + q.x,
-                safeguard: 1.0,
-            };
-            samples.vertices.insert(v, sample);
-        }
+        let samples = crate::contact::fixtures::sampled_at_depth(&positions, |q| 1.0 + q.x);
         let [area, first, second] = depth_moments(&triangles, &[0, 1], &samples);
         assert!((area - 1.0).abs() < 1e-14, "area {area}");
         assert!((first / area - 1.5).abs() < 1e-14, "mean {}", first / area);
