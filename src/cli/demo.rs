@@ -730,8 +730,9 @@ fn print_self_contact_table(rows: &[SelfContactRow]) {
          output's largest second difference over the input's, over the frames (a pop shows \
          as a large ratio); step: the largest change of the displacement from one frame to \
          the next over the input's fastest vertex's motion in one frame (it grows with the \
-         frame count where the output pops, not where it is continuous); OBJ frames in <scene>/contact_obj (CoR: contact_obj_cor), baked \
-         <scene>/<anim>.contact.glb (CoR: .contact.cor.glb))"
+         frame count where the output pops, not where it is continuous); OBJ frames in \
+         <scene>/contact_obj (CoR: contact_obj_cor), baked <scene>/<anim>.contact.glb (CoR: \
+         .contact.cor.glb))"
     );
 }
 

@@ -1,6 +1,7 @@
 //! Per-frame error metrics of `MEASURING.md` ("Error metrics"): residual penetration through the
 //! generalized winding number, volume error, inverted faces, temporal smoothness (second
-//! differences) and continuity (the displacement's steps), point-to-surface and Hausdorff distances, non-finite values.
+//! differences) and continuity (the displacement's steps), point-to-surface and Hausdorff
+//! distances, non-finite values.
 //!
 //! **Units.** Every length is returned in the absolute units of the positions given. Reports
 //! divide them by `h_rest`, the mean edge length of the rest mesh
