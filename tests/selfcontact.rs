@@ -560,7 +560,7 @@ fn native_frames(name: &str) -> usize {
 /// at 151), the finger 0.058 and 0.059 at 91: continuous, the largest steps where the folds
 /// deepen fastest; against the capsule with CoR input 1.02 at 31 frames and 2.65 at 76, with
 /// DQS 1.55 and 3.95 (pops of 3-5 h, the issue note's), and the mouth 0.88 at 31 and 2.75 at
-/// 91 (its corners' crease vertices, 0.27 h; 0.49 and 0.62 with `free_isolated_crease`).
+/// 91 (its corners' crease vertices, 0.27 h; 0.51 and 0.60 with `free_isolated_crease`).
 #[test]
 fn lbs_folds_at_the_animations_frame_rate() {
     for (name, native, max_ratio) in [("bending_capsule", 76, 4.5), ("finger", 91, 2.4)] {
