@@ -1,4 +1,4 @@
-//! Tests of the per-frame error metrics (`src/report/metrics.rs`, `MEASURING.md` "Error
+//! Tests of the per-frame error metrics (`src/report/metrics/`, `MEASURING.md` "Error
 //! metrics"): fast winding numbers against the brute-force sum, residual penetration against
 //! analytic spheres, inverted faces, temporal second differences, exact point-triangle and
 //! Hausdorff distances, and non-finite inputs. Every mesh is generated here.
