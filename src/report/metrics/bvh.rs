@@ -1,10 +1,11 @@
-//! A small bounding volume hierarchy over finite triangles, shared by the winding number and the distances.
+//! A small bounding volume hierarchy over finite triangles, shared by the winding number and
+//! the distances.
 
 use super::triangle::distance2;
+use super::*;
 
 /// Faces per BVH leaf at most.
 const LEAF_SIZE: usize = 4;
-use super::*;
 
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Node {

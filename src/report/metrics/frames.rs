@@ -1,4 +1,5 @@
-//! Volume error, inverted and turned faces, and the temporal measures over a run (second differences, displacement steps).
+//! Volume error, inverted and turned faces, and the temporal measures over a run (second
+//! differences, displacement steps).
 
 use super::*;
 

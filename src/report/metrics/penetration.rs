@@ -1,4 +1,5 @@
-//! Residual penetration (`MEASURING.md`): vertices nudged inward whose winding number says they are inside another body or part.
+//! Residual penetration (`MEASURING.md`): vertices nudged inward whose winding number says they
+//! are inside another body or another part of their own.
 
 use super::*;
 

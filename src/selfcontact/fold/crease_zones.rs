@@ -3,9 +3,10 @@
 
 use super::*;
 
-/// lie inside the other part ([`crate::contact::inside_twice`], as for `I_l`): each joins the zone of its own side,
-/// else of the other side (a cut vertex belongs to faces of both parts), whose sample is
-/// [`conditioned`]; only a side that already has a zone is extended.
+/// Extends the contact zones to the vertices of the crease cut (next to the other side) that
+/// lie inside the other part ([`crate::contact::inside_twice`], as for `I_l`): each joins the
+/// zone of its own side, else of the other side (a cut vertex belongs to faces of both parts),
+/// whose sample is [`conditioned`]; only a side that already has a zone is extended.
 ///
 /// Not in the paper. The threshold of Eq. 4 leaves out the shallow end of the intersection,
 /// which in a fold is its bottom: the two sides meet at the crease, where the depth goes to 0.
