@@ -21,7 +21,7 @@
 //! [self_contact]                  # optional: joints folding into themselves
 //! enabled = true
 //! passes = 2                      # sweeps per frame (exactly, when given without max_passes)
-//! max_passes = 4                  # up to this many while a fold still penetrates (default 4)
+//! max_passes = 6                  # up to this many while a fold still penetrates (default 6)
 //! threshold = 0.05                # RegionOptions::threshold
 //! grow_rings = 2
 //! stiffness = 0.5                 # k̄ of the parent side, in [0, 1]

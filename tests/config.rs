@@ -749,7 +749,7 @@ fn the_self_contact_table_parses_and_resolves() {
 }
 
 /// `passes` is the sweep count (default 2); `max_passes` allows sweeps past it while a fold
-/// still penetrates (default 4, none beyond a `passes` given alone), and alone bounds both; it
+/// still penetrates (default 6, none beyond a `passes` given alone), and alone bounds both; it
 /// cannot be below `passes`.
 #[test]
 fn the_sweeps_are_a_count_and_a_bound() {

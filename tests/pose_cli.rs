@@ -1088,10 +1088,10 @@ fn info_reports_the_joint_pairs_and_their_direction_source() {
     let sc = &v["self_contact"];
     assert_eq!(sc["enabled"], true);
     assert_eq!(sc["safeguard_angle"].as_f64(), Some(72.5));
-    // Two sweeps, and up to two further ones by default.
+    // Two sweeps, and up to four further ones by default (two until the twenty-fourth session).
     assert_eq!(
         (sc["passes"].as_u64(), sc["max_passes"].as_u64()),
-        (Some(2), Some(4))
+        (Some(2), Some(6))
     );
     let pairs = sc["pairs"].as_array().expect("pairs");
     assert_eq!(pairs.len(), 1);

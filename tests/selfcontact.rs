@@ -588,9 +588,10 @@ fn lbs_folds_at_the_animations_frame_rate() {
 }
 
 /// Sweeps past the count while the folds' shared regions keep penetrating vertices
-/// (`with_max_passes`, by default up to 4 in all since 2026-12-03): the bending capsule with
-/// CoR input at 31 frames, defaults, keeps penetrating vertices after its 2 sweeps in frames 23,
-/// 29 and 30 (1, 2 and 4), which further sweeps resolve (3, 4 and 3 sweeps in all); in frame
+/// (`with_max_passes`, by default up to 6 in all since the twenty-fourth session, 4 before): the
+/// bending capsule with CoR input at 31 frames, defaults, keeps penetrating vertices after its 2
+/// sweeps in frames 23, 29 and 30 (1, 2 and 4), which further sweeps resolve (3, 4 and 3 sweeps
+/// in all, as before); in frame
 /// 15, clear after 2, the further sweeps change nothing. (The case moves with the pass's
 /// discrete decisions: until Eq. 4's moments were taken over each part's own faces,
 /// 2026-12-03, it was `finger_long` without the bulge guard, frame 56 of 61, which 2 sweeps

@@ -416,13 +416,15 @@ fn cesium_man_with_the_object_pass_extent_floor_stays_bounded() {
 /// penetrating vertices over the 21 frames (measured; `γ = 0.5`: 31, `0.25`: 23; for
 /// `node12-node13` alone 25, `node12-node16` alone 53), the body losing up to 4.9 % of its
 /// volume instead of none. Since 2026-12-03 (the crease cut's seam vertices in the mapping
-/// regions, the turn guard on every face with a corner in the working regions) 33 -> 17.
-/// Asserted: at most 0.6 of it is left (round-off at the pass's ties moves these counts by a
-/// few). All without the bulge guard, which keeps
+/// regions, the turn guard on every face with a corner in the working regions) 33 -> 17; since
+/// the twenty-fourth session's further sweeps (no stop when a sweep leaves as many, up to 6)
+/// 29 -> 18: the further sweeps now resolve part of what the bulge pushed in, so less is left
+/// to take away. Asserted: at most 0.7 of it is left (0.6 until then; round-off at the pass's
+/// ties moves these counts by a few). All without the bulge guard, which keeps
 /// the bulge out of the other side with the volume kept
-/// ([`the_bulge_guard_halves_cesium_mans_residual_with_the_volume_kept`]).
+/// ([`the_bulge_guard_cuts_cesium_mans_residual_with_the_volume_kept`]).
 #[test]
-fn cesium_man_shoulders_without_bulge_leave_less_than_half() {
+fn cesium_man_shoulders_without_bulge_leave_two_thirds_at_most() {
     let rel = "CesiumMan/CesiumMan.glb";
     let Some(path) = sample(rel) else {
         return;
@@ -446,7 +448,7 @@ fn cesium_man_shoulders_without_bulge_leave_less_than_half() {
         .expect("the shoulders are derived pairs");
     let s = run_prepared(rel, prepared);
     assert!(
-        10 * s.after <= 6 * default.after,
+        10 * s.after <= 7 * default.after,
         "shoulders without bulge: {} penetrating, with: {}",
         s.after,
         default.after
@@ -464,10 +466,11 @@ fn cesium_man_shoulders_without_bulge_leave_less_than_half() {
 /// volume solved again. Measured over 21 frames: 58 -> 21 penetrating vertices (about as few
 /// as with no bulge on the shoulders), the volume exact; Fox's run (41 frames) 102 -> 79; since
 /// 2026-12-03 (the seam vertices in the mapping regions, the turn guard on every face with a
-/// corner in the working regions) CesiumMan 33 -> 17. Asserted: at most 0.6 is left, with
-/// the volume kept.
+/// corner in the working regions) CesiumMan 33 -> 17; since the twenty-fourth session's
+/// further sweeps 29 -> 19 (they resolve part of what the bulge pushes in without the guard).
+/// Asserted: at most 0.7 is left (0.6 until then), with the volume kept.
 #[test]
-fn the_bulge_guard_halves_cesium_mans_residual_with_the_volume_kept() {
+fn the_bulge_guard_cuts_cesium_mans_residual_with_the_volume_kept() {
     let free = FoldParams {
         bulge_guard: false,
         ..FoldParams::default()
@@ -478,7 +481,7 @@ fn the_bulge_guard_halves_cesium_mans_residual_with_the_volume_kept() {
         let s = run_sample(rel, &path, FoldParams::default());
         println!("{rel}: {} -> {} with the guard", without.after, s.after);
         assert!(
-            10 * s.after <= 6 * without.after,
+            10 * s.after <= 7 * without.after,
             "{} -> {}",
             without.after,
             s.after
