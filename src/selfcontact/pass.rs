@@ -219,13 +219,14 @@ impl SelfContactPass {
     /// keep penetrating vertices by `MEASURING.md`'s test (the winding number at `p - 0.05 h n`
     /// at least 1.5, `h` the body's mean rest edge length; queried on the body's tree that the
     /// folds keep, refit to the body; a fold that first moves in a further sweep adds its
-    /// shared region to the vertices counted). Each body is counted and stopped on its own, so that a body gets
-    /// what it gets alone whatever else the rig holds (until 2026-12-03 the counts were summed
-    /// over the bodies: the bending capsule next to the finger, CoR input, took a fourth sweep
-    /// at frame 13 of 31 that it does not take alone; a body that the last sweep did not move
-    /// stops too). A further sweep runs only the folds whose working regions hold one of those
-    /// vertices: what no fold reaches (an arm against the torso) costs one test, and a fold
-    /// left out reports nothing for that sweep ([`SelfPassOutput`]'s counts). Where the
+    /// shared region to the vertices counted). Each body is counted and stopped on its own, so
+    /// that a body gets what it gets alone whatever else the rig holds (until 2026-12-03 the
+    /// counts were summed over the bodies: the bending capsule next to the finger, CoR input,
+    /// took a fourth sweep at frame 13 of 31 that it does not take alone; a body that the last
+    /// sweep did not move stops too). A further sweep runs only the folds whose working
+    /// regions hold one of those vertices: what no fold reaches (an arm against the torso)
+    /// costs one test, and a fold left out reports nothing for that sweep
+    /// ([`SelfPassOutput`]'s counts). Where the
     /// mapping direction is not square to the contact (a direction 3° off the bending
     /// capsule's skeleton's leaves 82 penetrating vertices over 31 frames after 2 sweeps, 2
     /// with the default), on CoR or DQS input, or where a neighbouring joint's fold pushed back
