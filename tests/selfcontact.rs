@@ -641,6 +641,59 @@ fn further_sweeps_resolve_what_two_leave() {
     }
 }
 
+/// A further sweep does not pin again the crease vertices that the sweep before left
+/// penetrating (`FoldInput::left_penetrating`, since the twenty-fifth session): the finger with
+/// DQS input at 31 frames, defaults. Before, frames 21 and 23 kept 3 and 1 penetrating vertices
+/// through their six sweeps, and frame 25 kept 3, two of them crease vertices pinned at their
+/// skinned position (the seam's own point at depth 0) in every sweep; now frames 21 and 23 end
+/// clear and no penetrating vertex of frame 25 is left where the skinning put it.
+#[test]
+fn further_sweeps_do_not_pin_the_crease_vertices_they_left_inside() {
+    let l = load_with("finger", 31, Method::Dqs);
+    let two = self_pass(&l, &[]).with_passes(2);
+    let further = self_pass(&l, &[]).with_passes(2).with_max_passes(6);
+    for f in [21, 23, 25] {
+        let pose = l.rig.pose_at(Some(0), l.times[f]);
+        let skinned = l.frame_normals(f);
+        let input = l.frame(f);
+        let (mut after_two, mut after_more) = (input.clone(), input.clone());
+        two.run_with_normals(&l.rig, &pose, &mut after_two, &skinned)
+            .expect("pass runs");
+        let r = further
+            .run_with_normals(&l.rig, &pose, &mut after_more, &skinned)
+            .expect("pass runs");
+        let (p2, pm) = (
+            penetration(&l, 0, &after_two[0]),
+            penetration(&l, 0, &after_more[0]),
+        );
+        println!(
+            "frame {f}: 2 sweeps leave {:?}, {} sweeps leave {:?}",
+            p2.flagged, r.sweeps, pm.flagged
+        );
+        assert!(
+            p2.vertices > 0,
+            "frame {f} is no longer a case for further sweeps"
+        );
+        let pinned: Vec<u32> = pm
+            .flagged
+            .iter()
+            .copied()
+            .filter(|&v| after_more[0][v as usize] == input[0][v as usize])
+            .collect();
+        assert!(
+            pinned.is_empty(),
+            "frame {f}: {pinned:?} penetrate where the input had them"
+        );
+        if f != 25 {
+            assert_eq!(
+                pm.vertices, 0,
+                "frame {f}: further sweeps leave {:?}",
+                pm.flagged
+            );
+        }
+    }
+}
+
 /// The paper's hand-set direction of the mouth (Fig. 1d): vertical, the upper lip's outward
 /// direction -Y.
 fn mouth_vertical() -> Vec<(String, DirectionSource)> {
@@ -1113,6 +1166,7 @@ impl CapsuleFold {
                         positions: &input,
                         normal: &|v| skinned[v],
                     }),
+                    left_penetrating: None,
                 },
                 params,
             )

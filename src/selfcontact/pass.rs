@@ -393,6 +393,7 @@ impl SelfContactPass {
                     pose,
                     normals,
                     bodies: &mut bodies,
+                    left_penetrating: &further.left,
                 };
                 let moved_now = self.sweep_fold(fold, frame, &mut frame_input, &mut out)?;
                 if moved_now && self.max_passes > self.passes {
@@ -533,6 +534,7 @@ impl SelfContactPass {
             pose,
             normals: given,
             bodies,
+            left_penetrating,
         } = frame;
         let name = &fold.pre.regions.pair.name;
         let tris = &self.triangles[fold.body];
@@ -582,6 +584,10 @@ impl SelfContactPass {
                 positions: &first[fold.body],
                 normal: &normal,
             }),
+            left_penetrating: left_penetrating
+                .get(fold.body)
+                .filter(|left| !left.is_empty())
+                .map(Vec::as_slice),
         };
         let resolved = resolve_detected_in(&fold.pre, &detection, &input, params, winding);
         let Some(o) = resolved.map_err(fail)? else {
@@ -612,6 +618,8 @@ struct Frame<'f, 'p> {
     /// The skinning's normals per body ([`SelfContactPass::run_with_normals`]).
     normals: Option<&'f [Vec<Vector3<f64>>]>,
     bodies: &'f mut PosedBodies<'p>,
+    /// Per body, the vertices the sweep before left penetrating ([`FurtherSweeps::left`]).
+    left_penetrating: &'f [Vec<bool>],
 }
 
 /// One normal per position, per body.
@@ -640,6 +648,10 @@ struct FurtherSweeps {
     reach: Vec<Vec<bool>>,
     /// Per body, whether a fold moved it in the sweep just run.
     moved: Vec<bool>,
+    /// Per body, per vertex: whether the last sweep left it penetrating (empty before the
+    /// first further sweep and for a body done): a further sweep does not pin these crease
+    /// vertices again ([`FoldInput::left_penetrating`]).
+    left: Vec<Vec<bool>>,
 }
 
 impl FurtherSweeps {
@@ -647,6 +659,7 @@ impl FurtherSweeps {
         Self {
             reach: vec![Vec::new(); bodies],
             moved: vec![false; bodies],
+            left: vec![Vec::new(); bodies],
         }
     }
 
@@ -655,7 +668,7 @@ impl FurtherSweeps {
     /// (else another would find the same, as for the whole frame) and penetrating vertices are
     /// left in its reach, whether or not its last sweep left fewer than the one before (a sweep
     /// that does not lower the count can prepare one that does); a body done is neither tested
-    /// nor swept again.
+    /// nor swept again. The vertices found are kept in [`FurtherSweeps::left`] for the sweep.
     fn next(&mut self, pass: &SelfContactPass, bodies: &mut PosedBodies) -> Option<Vec<bool>> {
         for (reach, &moved) in self.reach.iter_mut().zip(&self.moved) {
             if !moved {
@@ -666,6 +679,17 @@ impl FurtherSweeps {
         for (flags, reach) in flagged.iter_mut().zip(&mut self.reach) {
             if flags.is_empty() {
                 reach.clear();
+            }
+        }
+        for ((left, flags), reach) in self.left.iter_mut().zip(&flagged).zip(&self.reach) {
+            left.clear();
+            if !flags.is_empty() {
+                left.resize(reach.len(), false);
+                for &v in flags {
+                    if let Some(l) = left.get_mut(v as usize) {
+                        *l = true;
+                    }
+                }
             }
         }
         (!flagged.iter().all(Vec::is_empty)).then(|| pass.folds_holding(&flagged))

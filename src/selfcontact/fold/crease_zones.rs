@@ -20,6 +20,14 @@ use super::*;
 /// vertices stay out (else the zones would jump there as the cut moves). With `connected_only`
 /// ([`FoldParams::free_isolated_crease`]) a crease vertex joins only where it connects to the
 /// zone it would join (next to one of its vertices, or to a crease vertex joining it).
+///
+/// In a further sweep, a crease vertex that the sweep before left penetrating
+/// ([`FoldInput::left_penetrating`]) stays out: its sample is mostly the seam's own point at
+/// depth 0 (`contact::mapping`'s seams), and as a zone vertex it is pinned where it is, inside
+/// the other part, in every sweep (traced on the finger with CoR input, frame 24 of 31: three
+/// of its seven penetrating vertices pinned through the six sweeps). Out of the zones the
+/// profile carries it with its neighbours. A vertex that no sweep left penetrating (all of
+/// them on LBS input, which takes no further sweep) joins as before.
 pub(super) fn zones_to_the_crease(
     pre: &FoldPre,
     input: &CreaseVertices,
@@ -50,11 +58,13 @@ pub(super) struct CreaseVertices<'a> {
     pub(super) positions: &'a [Point3<f64>],
     pub(super) normals: &'a [Vector3<f64>],
     pub(super) test: &'a InsideTwice<'a>,
+    /// [`FoldInput::left_penetrating`].
+    pub(super) left_penetrating: Option<&'a [bool]>,
 }
 
-/// The crease vertices (on an edge of `R` across the cut) outside the zones, each with the
-/// zone it would join (its own side's, else the other's, whose sample is [`conditioned`]), in
-/// the order of `R`'s edges. Zones are extended, not created: a zone made of crease vertices
+/// The crease vertices (on an edge of `R` across the cut) outside the zones and not left
+/// penetrating by the sweep before, each with the zone it would join (its own side's, else the
+/// other's, whose sample is [`conditioned`]), in the order of `R`'s edges. Zones are extended, not created: a zone made of crease vertices
 /// alone can sit on the working region's border, where the extent is capped to nothing and no
 /// bulge can compensate (measured on CesiumMan: a one-vertex zone, volume error 7e-3).
 fn crease_candidates(
@@ -69,6 +79,11 @@ fn crease_candidates(
         .sides
         .each_ref()
         .map(|c| !c.zone.vertices.is_empty());
+    let left = |v: usize| {
+        input
+            .left_penetrating
+            .is_some_and(|l| l.get(v).copied().unwrap_or(false))
+    };
     let mut seen = vec![false; input.positions.len()];
     let mut candidates = Vec::new();
     for &[a, b] in &region.edges {
@@ -82,6 +97,7 @@ fn crease_candidates(
         for v in [va, vb] {
             if std::mem::replace(&mut seen[v], true)
                 || contact.sides.iter().any(|c| c.zone.inside[v])
+                || left(v)
             {
                 continue;
             }

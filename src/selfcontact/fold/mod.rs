@@ -592,6 +592,7 @@ pub fn resolve_detected_in(
             positions,
             normals,
             test: tree,
+            left_penetrating: geometry.left_penetrating,
         };
         zones_to_the_crease(
             pre,
@@ -639,6 +640,12 @@ pub struct FoldInput<'a> {
     /// What the turn guard keeps faces from turning against ([`FoldParams::turn_guard`]):
     /// the frame's input and the skinning's normals; `None`: no guard.
     pub turn_reference: Option<TurnReference<'a>>,
+    /// Per mesh vertex, whether the frame's previous sweep left it penetrating (set in the
+    /// further sweeps of [`crate::selfcontact::pass::SelfContactPass::with_max_passes`],
+    /// `None` in a frame's first sweeps): such a vertex of the crease cut does not join a
+    /// contact zone at depth 0, where it would be pinned inside again, and is left to Sec. 5's
+    /// profile.
+    pub left_penetrating: Option<&'a [bool]>,
 }
 
 /// Seconds between successive calls of [`Laps::next`].
