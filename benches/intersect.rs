@@ -1,6 +1,8 @@
 //! Intersection benchmarks (2021 Sec. 4.1-4.2 building blocks) on two overlapping 10k-triangle
 //! UV spheres: mesh-mesh detection (hits + curves), intersection regions, BVH build vs refit
-//! (ours, and parry's `Bvh` for comparison), 10k farthest-hit rays, silhouette extraction.
+//! (ours, and parry's `Bvh` for comparison), 10k farthest-hit rays, silhouette extraction, and
+//! the fast winding number (Barill et al. 2018) that the self-contact pass's inside tests and
+//! `pose --metrics`' penetration test query: its refit and 5k queries, one thread.
 //!
 //! Run with `cargo bench --bench intersect`.
 
@@ -8,6 +10,7 @@ use contact_skin::intersect::{
     farthest_hits, FrontSide, IntersectionRegion, Intersections, MeshIndex, Ray, Side, Silhouette,
     TriangleBvh,
 };
+use contact_skin::report::metrics::WindingNumber;
 use criterion::{criterion_group, criterion_main, Criterion};
 use nalgebra::{Point3, Vector3};
 use parry3d_f64::bounding_volume::{Aabb as ParryAabb, BoundingVolume};
@@ -208,6 +211,38 @@ fn rays(c: &mut Criterion) {
     g.finish();
 }
 
+fn winding(c: &mut Criterion) {
+    let s = scene();
+    let mut tree = WindingNumber::new(&s.a.0, &s.a.1);
+    // Queries at B's vertices, nudged inward as the penetration test nudges them: about a
+    // quarter inside A, some near its surface, the rest up to a diameter away.
+    let center_b = Point3::new(0.3, 0.2, 1.1);
+    let queries: Vec<Point3<f64>> =
+        s.b.0
+            .iter()
+            .map(|p| p - (p - center_b).normalize() * 0.005)
+            .collect();
+    let inside = queries.iter().filter(|q| tree.query(q) > 0.5).count();
+    println!(
+        "winding number: {inside} of {} queries inside",
+        queries.len()
+    );
+    let moved: Vec<Point3<f64>> = s.a.0.iter().map(|p| p + Vector3::x() * 1e-3).collect();
+    let mut g = c.benchmark_group("winding");
+    g.bench_function("winding_5k_queries_10k_tris", |bch| {
+        bch.iter(|| black_box(queries.iter().map(|q| tree.query(q)).sum::<f64>()))
+    });
+    let mut k = 0;
+    g.bench_function("winding_refit_10k_tris", |bch| {
+        bch.iter(|| {
+            k ^= 1;
+            let at = if k == 1 { &moved } else { &s.a.0 };
+            black_box(tree.refit(at, &s.a.1))
+        })
+    });
+    g.finish();
+}
+
 fn config() -> Criterion {
     Criterion::default()
         .sample_size(10)
@@ -218,6 +253,6 @@ fn config() -> Criterion {
 criterion_group! {
     name = benches;
     config = config();
-    targets = detection, bvh, rays
+    targets = detection, bvh, rays, winding
 }
 criterion_main!(benches);

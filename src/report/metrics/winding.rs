@@ -149,34 +149,90 @@ impl Moments {
         }
         out
     }
+}
+
+/// What a query reads of a node's [`Moments`]: its ball and the coefficients of the
+/// second-order expansion (Barill et al. 2018, Sec. 3.2) gathered per power of the unit
+/// direction `u = (p̃ - q)/d`, so that a far-field evaluation is a handful of products rather
+/// than the 27 contractions of `C`. The node's `4π ×` winding number at `q` is
+/// `u·N / d² + (tr M + uᵀ Q u) / d³ + (u·E + T(u)) / d⁴`, with
+/// - `Q = -3 (M + Mᵀ)/2` (from `Σ_ij ∂_j f_i M_ji`, `∂_j f_i = (δ_ij - 3 u_i u_j) / d³`, for
+///   the integrand `f(x)·n` with `f(x) = (x - q)/|x - q|³`);
+/// - `E_k = -3/2 (2 Σ_j C_jkj + Σ_j C_jjk)` and `T(u) = 15/2 Σ_ijk u_i u_j u_k C_jki`, from
+///   `½ Σ_ijk ∂_j∂_k f_i C_jki` with
+///   `∂_j∂_k f_i = (-3 (δ_ij u_k + δ_ik u_j + δ_jk u_i) + 15 u_i u_j u_k) / d⁴`; `T` is kept as
+///   the ten coefficients of its symmetrized cubic form.
+#[derive(Clone, Copy, Debug)]
+struct Expansion {
+    center: Point3<f64>,
+    radius: f64,
+    n: Vector3<f64>,
+    trace: f64,
+    /// `Q`'s `xx, yy, zz` and twice its `xy, xz, yz`.
+    q: [f64; 6],
+    e: Vector3<f64>,
+    /// `T`'s coefficients of `x³, y³, z³, x²y, x²z, xy², y²z, xz², yz², xyz`.
+    t: [f64; 10],
+}
+
+/// Position in [`Expansion::t`] of the monomial `u_i u_j u_k`, at `[i][j][k]`.
+const CUBIC_SLOT: [[[usize; 3]; 3]; 3] = [
+    [[0, 3, 4], [3, 5, 9], [4, 9, 7]],
+    [[3, 5, 9], [5, 1, 6], [9, 6, 8]],
+    [[4, 9, 7], [9, 6, 8], [7, 8, 2]],
+];
+
+impl Expansion {
+    fn of(mo: &Moments) -> Self {
+        let sym = (mo.m + mo.m.transpose()) * -1.5;
+        let q = [
+            sym[(0, 0)],
+            sym[(1, 1)],
+            sym[(2, 2)],
+            2.0 * sym[(0, 1)],
+            2.0 * sym[(0, 2)],
+            2.0 * sym[(1, 2)],
+        ];
+        let mut e = Vector3::zeros();
+        let mut t = [0.0; 10];
+        for j in 0..3 {
+            for k in 0..3 {
+                e[k] += 2.0 * mo.c[j][k][j] + mo.c[j][j][k];
+                for i in 0..3 {
+                    t[CUBIC_SLOT[i][j][k]] += 7.5 * mo.c[j][k][i];
+                }
+            }
+        }
+        Expansion {
+            center: mo.center,
+            radius: mo.radius,
+            n: mo.n,
+            trace: mo.m.trace(),
+            q,
+            e: e * -1.5,
+            t,
+        }
+    }
 
     /// `4π ×` the node's winding number at `q` by its second-order Taylor expansion about the
-    /// center, with `r = p̃ - q`, `d = |r| > 0`: the integrand `(x - q)·n / |x - q|³` is
-    /// `f(x)·n` with `f(x) = (x - q)/|x - q|³`, expanded to second order about `p̃`.
+    /// center, with `r = p̃ - q`, `d = |r| > 0` (the expansion of [`Expansion`]'s doc).
     #[inline]
     fn far_field(&self, r: &Vector3<f64>, d: f64) -> f64 {
         let u = r / d;
-        let d2 = d * d;
-        let order0 = u.dot(&self.n) / d2;
-        // Σ_ij ∂_j f_i M_ji with ∂_j f_i = (δ_ij - 3 u_i u_j) / d³.
-        let order1 = (self.m.trace() - 3.0 * u.dot(&(self.m * u))) / (d2 * d);
-        // ½ Σ_ijk ∂_j∂_k f_i C_jki with
-        // ∂_j∂_k f_i = (-3 (δ_ij u_k + δ_ik u_j + δ_jk u_i) + 15 u_i u_j u_k) / d⁴.
-        let mut s_delta = 0.0;
-        let mut s_uuu = 0.0;
-        for j in 0..3 {
-            for k in 0..3 {
-                let cjk = &self.c[j][k];
-                // δ_ij u_k and δ_ik u_j (C symmetric in j, k) give 2 u_k C_jkj; δ_jk u_i gives u·C_jj.
-                s_delta += 2.0 * u[k] * cjk[j];
-                if j == k {
-                    s_delta += u.dot(cjk);
-                }
-                s_uuu += u[j] * u[k] * u.dot(cjk);
-            }
-        }
-        let order2 = 0.5 * (-3.0 * s_delta + 15.0 * s_uuu) / (d2 * d2);
-        let w = order0 + order1 + order2;
+        let (x, y, z) = (u.x, u.y, u.z);
+        let inv_d2 = 1.0 / (d * d);
+        let order0 = u.dot(&self.n);
+        let q = &self.q;
+        let quadratic =
+            q[0] * x * x + q[1] * y * y + q[2] * z * z + q[3] * x * y + q[4] * x * z + q[5] * y * z;
+        let order1 = (self.trace + quadratic) / d;
+        let t = &self.t;
+        let (xx, yy, zz) = (x * x, y * y, z * z);
+        let cubic = x * (t[0] * xx + t[5] * yy + t[7] * zz + t[9] * y * z)
+            + y * (t[1] * yy + t[3] * xx + t[8] * zz)
+            + z * (t[2] * zz + t[4] * xx + t[6] * yy);
+        let order2 = (u.dot(&self.e) + cubic) * inv_d2;
+        let w = (order0 + order1 + order2) * inv_d2;
         if w.is_finite() {
             w
         } else {
@@ -203,6 +259,8 @@ impl Moments {
 pub struct WindingNumber {
     pub(super) bvh: Bvh,
     moments: Vec<Moments>,
+    /// Per node, what a query reads ([`Expansion::of`] its moments).
+    expansions: Vec<Expansion>,
     beta: f64,
     skipped: usize,
     /// Whether every inner node's moments are its children's merged (after any refit; a
@@ -222,11 +280,12 @@ impl WindingNumber {
     /// force).
     pub fn with_beta(positions: &[Point3<f64>], triangles: &[[u32; 3]], beta: f64) -> Self {
         let (bvh, skipped) = Bvh::build(positions, triangles, 0..triangles.len() as u32);
-        let moments = bvh
+        let moments: Vec<Moments> = bvh
             .nodes
             .par_iter()
             .map(|n| Moments::of(&bvh.tris, n))
             .collect();
+        let expansions = moments.iter().map(Expansion::of).collect();
         let beta = if beta.is_nan() || beta < 0.0 {
             WINDING_BETA
         } else {
@@ -235,6 +294,7 @@ impl WindingNumber {
         Self {
             bvh,
             moments,
+            expansions,
             beta,
             skipped,
             merged: false,
@@ -345,6 +405,7 @@ impl WindingNumber {
             self.moments[i] =
                 Moments::merge(&self.moments[l], &self.moments[r], &self.bvh.nodes[i]);
         }
+        self.expansions[i] = Expansion::of(&self.moments[i]);
         fitted[i] = true;
     }
 
@@ -363,11 +424,11 @@ impl WindingNumber {
         stack.push(0);
         while let Some(i) = stack.pop() {
             let node = &self.bvh.nodes[i as usize];
-            let mo = &self.moments[i as usize];
-            let r = mo.center - q;
+            let ex = &self.expansions[i as usize];
+            let r = ex.center - q;
             let d = r.norm();
-            if d > self.beta * mo.radius {
-                sum += mo.far_field(&r, d);
+            if d > self.beta * ex.radius {
+                sum += ex.far_field(&r, d);
             } else if node.is_leaf() {
                 sum += self.bvh.tris[node.slots()]
                     .iter()
