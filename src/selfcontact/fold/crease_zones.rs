@@ -64,9 +64,10 @@ pub(super) struct CreaseVertices<'a> {
 
 /// The crease vertices (on an edge of `R` across the cut) outside the zones and not left
 /// penetrating by the sweep before, each with the zone it would join (its own side's, else the
-/// other's, whose sample is [`conditioned`]), in the order of `R`'s edges. Zones are extended, not created: a zone made of crease vertices
-/// alone can sit on the working region's border, where the extent is capped to nothing and no
-/// bulge can compensate (measured on CesiumMan: a one-vertex zone, volume error 7e-3).
+/// other's, whose sample is [`conditioned`]), in the order of `R`'s edges. Zones are extended,
+/// not created: a zone made of crease vertices alone can sit on the working region's border,
+/// where the extent is capped to nothing and no bulge can compensate (measured on CesiumMan: a
+/// one-vertex zone, volume error 7e-3).
 fn crease_candidates(
     pre: &FoldPre,
     input: &CreaseVertices,
