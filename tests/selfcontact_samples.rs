@@ -26,7 +26,7 @@ fn sample(rel: &str) -> Option<std::path::PathBuf> {
     p.exists().then_some(p)
 }
 
-/// What the pass did to a character over 21 frames of its first animation.
+/// What the pass did to a character over 21 frames of one of its animations.
 struct Summary {
     pairs: usize,
     frames: usize,
@@ -224,33 +224,43 @@ fn real_characters_never_get_worse() {
             continue;
         };
         let s = run_sample(rel, &path, FoldParams::default());
-        assert!(
-            s.after <= s.before,
-            "{rel}: self-contact made penetration worse ({} -> {})",
-            s.before,
-            s.after
-        );
-        assert!(s.volume < 1e-4, "{rel}: volume error {:.1e}", s.volume);
-        // What the pass leaves is shallow: CesiumMan's 58 vertices are at most 0.67 h deep
-        // (measured; the skinned input is up to 1.04 h deep by the same measure). The other
-        // samples have no frame with a fold: for them this holds trivially.
-        assert!(
-            s.deepest < 1.0,
-            "{rel}: a vertex left {:.2} h deep",
-            s.deepest
-        );
         // The turn guard: CesiumMan's 21 frames turned 225 faces over (37 buried) without it,
         // 2 with it until 2026-12-03 (the guard checked only the working regions' faces, while
         // the bulge moves the vertices of their border too), none since it checks every face
         // with a corner in them (and against the skinning's own normals, as here).
-        assert_eq!(s.turned.turned, 0, "{rel}: faces turned over");
-        // No spike: measured 4.0 edge lengths at most (CesiumMan; 5.3 without the turn guard).
-        assert!(
-            s.largest < 8.0,
-            "{rel}: the pass moved a vertex by {:.1} edge lengths",
-            s.largest
-        );
+        assert_not_worse(rel, &s, 0);
     }
+}
+
+/// What every sample's run must show: no more penetrating vertices than the input, the
+/// volume kept, what is left shallow (CesiumMan's LBS residual is at most 0.67 h deep,
+/// measured; the skinned input up to 1.04 h by the same measure; samples without a fold hold
+/// it trivially), at most `turned_at_most` faces turned against both the input and the
+/// skinning, and no spike (measured 4.0 edge lengths at most on CesiumMan with LBS; 5.3
+/// without the turn guard). `rel` names the run in the messages.
+fn assert_not_worse(rel: &str, s: &Summary, turned_at_most: usize) {
+    assert!(
+        s.after <= s.before,
+        "{rel}: self-contact made penetration worse ({} -> {})",
+        s.before,
+        s.after
+    );
+    assert!(s.volume < 1e-4, "{rel}: volume error {:.1e}", s.volume);
+    assert!(
+        s.deepest < 1.0,
+        "{rel}: a vertex left {:.2} h deep",
+        s.deepest
+    );
+    assert!(
+        s.turned.turned <= turned_at_most,
+        "{rel}: {} faces turned over",
+        s.turned.turned
+    );
+    assert!(
+        s.largest < 8.0,
+        "{rel}: the pass moved a vertex by {:.1} edge lengths",
+        s.largest
+    );
 }
 
 /// The same with DQS and CoR input (the "with LBS, DQS or CoR skinning as input"):
@@ -275,32 +285,7 @@ fn real_characters_with_dqs_and_cor_input_never_get_worse() {
             };
             let prepared = prepare_with(&path, FoldParams::default(), method);
             let s = run_animation(rel, prepared, animation);
-            assert!(
-                s.turned.turned <= 1,
-                "{rel} ({method:?}): {} faces turned over",
-                s.turned.turned
-            );
-            assert!(
-                s.after <= s.before,
-                "{rel} ({method:?}): self-contact made penetration worse ({} -> {})",
-                s.before,
-                s.after
-            );
-            assert!(
-                s.volume < 1e-4,
-                "{rel} ({method:?}): volume error {:.1e}",
-                s.volume
-            );
-            assert!(
-                s.deepest < 1.0,
-                "{rel} ({method:?}): a vertex left {:.2} h deep",
-                s.deepest
-            );
-            assert!(
-                s.largest < 8.0,
-                "{rel} ({method:?}): moved {:.1} h",
-                s.largest
-            );
+            assert_not_worse(&format!("{rel} ({method:?})"), &s, 1);
         }
     }
 }
