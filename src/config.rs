@@ -40,6 +40,8 @@
 //!                                 # or "skeleton", or "motion" (relative motion of the parts)
 //! gamma = 0.5                     # this pair's τ, γ, ω (each optional; default the section's)
 //! free_isolated_crease = true     # and this (optional)
+//! [[self_contact.separated]]      # two regions of one body that share no vertex (Fig. 14)
+//! sides = [["forearm", "hand"], ["hips"]]   # each side's joints (node names)
 //! ```
 //!
 //! [`ContactConfig::load`] parses and checks every number (no rig needed);
@@ -498,6 +500,21 @@ pub struct SelfContactSpec {
     /// Per-pair settings.
     #[serde(default, rename = "pair")]
     pub pairs: Vec<SelfPairSpec>,
+    /// Separated working regions of one body named by their joints (`[[self_contact.
+    /// separated]]`).
+    #[serde(default)]
+    pub separated: Vec<SeparatedSpec>,
+}
+
+/// One `[[self_contact.separated]]` table: two working regions of one skinned body that share
+/// no vertex, each the vertices weighted on its joints (2021 Sec. 4-5 on parts of one mesh,
+/// the paper's Fig. 14: fingertips pressing their own palm; [`crate::selfcontact::
+/// separated_regions`]).
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SeparatedSpec {
+    /// The joints (node names) of each side: `[["forearm", "hand"], ["hips"]]`.
+    pub sides: [Vec<String>; 2],
 }
 
 /// One `[[self_contact.pair]]` table: what this pair does differently from the section.
@@ -571,6 +588,9 @@ pub struct SelfContactSettings {
     pub passes: usize,
     /// Largest number of sweeps per frame (at least `passes`).
     pub max_passes: usize,
+    /// The joints of both sides of each pair of separated regions
+    /// (`[[self_contact.separated]]`), in the file's order.
+    pub separated: Vec<[Vec<String>; 2]>,
 }
 
 /// A rig's contact configuration (see the module documentation).
@@ -1335,6 +1355,16 @@ impl ContactConfig {
                 }
             }
         }
+        for (j, sep) in spec.separated.iter().enumerate() {
+            for (k, side) in sep.sides.iter().enumerate() {
+                if side.is_empty() {
+                    return Err(self.invalid(
+                        format!("self_contact.separated[{j}].sides[{k}]"),
+                        "is empty",
+                    ));
+                }
+            }
+        }
         Ok(SelfContactSettings {
             enabled: self.self_contact_enabled(),
             regions: self.self_contact_regions(),
@@ -1343,6 +1373,7 @@ impl ContactConfig {
             pair_params,
             passes,
             max_passes,
+            separated: spec.separated.iter().map(|s| s.sides.clone()).collect(),
         })
     }
 }

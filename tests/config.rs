@@ -735,6 +735,7 @@ fn the_self_contact_table_parses_and_resolves() {
         pair_params: Vec::new(),
         passes: 1,
         max_passes: 1,
+        separated: Vec::new(),
     };
     assert_eq!(settings, expected);
     // The same from the pairs given by the caller (as the pass lists them).
@@ -864,6 +865,7 @@ fn without_a_self_contact_table_the_pass_defaults_apply() {
         pair_params: Vec::new(),
         passes: DEFAULT_FOLD_PASSES,
         max_passes: DEFAULT_MAX_FOLD_PASSES,
+        separated: Vec::new(),
     };
     // Without a table the pass is off (opt-in while experimental); an empty table turns it
     // on with the defaults.
@@ -1208,4 +1210,32 @@ fn an_unknown_pair_name_lists_the_derived_pairs() {
     for d in [&dir, &dir2] {
         let _ = std::fs::remove_dir_all(d);
     }
+}
+
+#[test]
+fn separated_regions_are_read_and_checked() {
+    let dir = mouth_dir("self-separated");
+    let text = "[[self_contact.separated]]\nsides = [[\"jaw\"], [\"head\", \"x\"]]\n";
+    let cfg = write_config(&dir, text).expect("parses");
+    let (rig, welded) = load_mouth(&dir);
+    let settings = cfg.resolve_self_contact(&rig, &welded).expect("resolves");
+    let jaw = vec!["jaw".to_owned()];
+    let head = vec!["head".to_owned(), "x".to_owned()];
+    assert_eq!(settings.separated, vec![[jaw, head]]);
+    // An empty side is named by its field; a table without `sides` does not parse.
+    let empty = write_config(
+        &dir,
+        "[[self_contact.separated]]\nsides = [[], [\"head\"]]\n",
+    )
+    .expect("parses");
+    let err = empty
+        .resolve_self_contact(&rig, &welded)
+        .expect_err("empty side");
+    assert!(
+        err.to_string()
+            .contains("self_contact.separated[0].sides[0]"),
+        "{err}"
+    );
+    assert!(write_config(&dir, "[[self_contact.separated]]\n").is_err());
+    assert!(write_config(&dir, "[[self_contact.separated]]\nsides = [[\"jaw\"]]\n").is_err());
 }

@@ -27,6 +27,7 @@ fn expected_bodies(scene: Scene) -> &'static [&'static str] {
         Scene::CapsulePair => &["capsule_lower", "capsule_upper"],
         Scene::FingertipsOnBall => &["ball", "thumb", "index", "middle"],
         Scene::SphereOnPlane => &["plane", "sphere"],
+        Scene::TwoFingers => &["fingers"],
     }
 }
 
@@ -35,7 +36,7 @@ fn expected_animations(scene: Scene) -> &'static [&'static str] {
         Scene::BendingCapsule => &["bend", "twist"],
         Scene::Finger | Scene::FingerLong => &["flex"],
         Scene::Mouth => &["close"],
-        Scene::CapsulePair | Scene::SphereOnPlane => &["press"],
+        Scene::CapsulePair | Scene::SphereOnPlane | Scene::TwoFingers => &["press"],
         Scene::FingertipsOnBall => &["squeeze"],
     }
 }

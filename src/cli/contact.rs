@@ -11,6 +11,7 @@ pub use contact_skin::report::timings::{median, median_folds, median_stages, Fol
 use contact_skin::rig::Rig;
 use contact_skin::selfcontact::fold::FoldTimings;
 use contact_skin::selfcontact::pass::{SelfContactPass, SelfPassOutput};
+use contact_skin::selfcontact::separated_regions;
 use nalgebra::Point3;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -115,13 +116,23 @@ impl SelfRun {
         rest: &[Vec<Point3<f64>>],
     ) -> Result<Self, BoxError> {
         let settings = cfg.resolve_self_contact(rig, &pre.welded)?;
-        let pass = SelfContactPass::new(
+        let mut separated = Vec::new();
+        for [a, b] in &settings.separated {
+            separated.extend(separated_regions(
+                rig,
+                &pre.welded,
+                [a, b],
+                &settings.regions,
+            )?);
+        }
+        let pass = SelfContactPass::with_separated(
             rig,
             &pre.welded,
             rest,
             &settings.regions,
             settings.params,
             &settings.directions,
+            separated,
         )?
         .with_passes(settings.passes)
         .with_max_passes(settings.max_passes)

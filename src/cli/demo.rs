@@ -192,6 +192,13 @@ fn default_config(scene: Scene) -> Option<&'static str> {
              direction = [0.0, -1.0, 0.0]\n\
              free_isolated_crease = true\n",
         ),
+        Scene::TwoFingers => Some(
+            "# Written by `contact-skin demo` (kept when present): the two fingers are sibling\n\
+             # joints, so no parent/child pair holds their contact; two separated working\n\
+             # regions of the one mesh do (2021 Sec. 4-5, Fig. 14).\n\
+             [[self_contact.separated]]\n\
+             sides = [[\"index\"], [\"middle\"]]\n",
+        ),
         _ => None,
     }
 }
@@ -741,7 +748,8 @@ mod tests {
     use super::*;
 
     /// The configuration the demo writes for the mouth parses, and sets the lips' pair as its
-    /// doc says: the vertical direction and `free_isolated_crease`; the other scenes get none.
+    /// doc says: the vertical direction and `free_isolated_crease`; the other scenes but the
+    /// two fingers get none.
     #[test]
     fn the_mouths_configuration_sets_the_lips() {
         let text = default_config(Scene::Mouth).expect("the mouth has one");
@@ -761,8 +769,26 @@ mod tests {
             pair.direction,
             Some(contact_skin::config::SelfDirection(vertical))
         );
-        for scene in Scene::ALL.iter().filter(|&&s| s != Scene::Mouth) {
+        let others = [Scene::Mouth, Scene::TwoFingers];
+        for scene in Scene::ALL.iter().filter(|s| !others.contains(s)) {
             assert!(default_config(*scene).is_none(), "{scene:?}");
         }
+    }
+
+    /// The two fingers' configuration names the separated regions of the sibling fingers.
+    #[test]
+    fn the_two_fingers_configuration_separates_the_fingers() {
+        let text = default_config(Scene::TwoFingers).expect("the two fingers have one");
+        let dir = std::path::Path::new(".");
+        let config =
+            contact_skin::config::ContactConfig::from_str_with_base(text, dir).expect("parses");
+        let section = config.self_contact.expect("a [self_contact] section");
+        let [separated] = section.separated.as_slice() else {
+            panic!("one pair of separated regions: {:?}", section.separated);
+        };
+        assert_eq!(
+            separated.sides,
+            [vec!["index".to_owned()], vec!["middle".to_owned()]]
+        );
     }
 }

@@ -6,7 +6,7 @@ use contact_skin::contact::zones::DEFAULT_SAFEGUARD_ANGLE;
 use contact_skin::mesh::{TopologyReport, WeldedMesh};
 use contact_skin::pass::DEFAULT_EXTENT_FACTOR;
 use contact_skin::rig::{self, Rig};
-use contact_skin::selfcontact::{derive_pairs_reporting, PairRegions};
+use contact_skin::selfcontact::{derive_pairs_reporting, separated_regions, PairRegions};
 use contact_skin::selfcontact::{BoneAxes, DirectionSource};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -66,7 +66,8 @@ struct ContactInfo {
     pairs: Vec<PairInfo>,
 }
 
-/// One joint pair derived from the skin weights (a possible fold).
+/// One joint pair derived from the skin weights (a possible fold), or a pair of separated
+/// regions the configuration names (`[[self_contact.separated]]`).
 #[derive(Serialize)]
 struct SelfPairInfo {
     body: usize,
@@ -84,8 +85,12 @@ struct SelfPairInfo {
     reason: String,
     /// The user direction of `[[self_contact.pair]]`, normalized (`null`: not fixed).
     direction: Option<[f64; 3]>,
-    /// Where the direction comes from: `"skeleton"`, `"fixed"` or `"motion"`.
+    /// Where the direction comes from: `"skeleton"`, `"fixed"` or `"motion"`; `"normals"`
+    /// (Eq. 2) for separated regions.
     direction_source: &'static str,
+    /// Separated regions (no shared region: Sec. 4-5 alone, `parent` and `child` the first
+    /// joint of each side).
+    separated: bool,
     /// A leaf joint pair's fold angle at rest in degrees when it exceeds 90° (the skeleton's
     /// direction keeps that fold's sense past a full fold:
     /// `contact_skin::selfcontact::RestFold`); `null` otherwise. Given whatever the pair's
@@ -241,7 +246,7 @@ fn describe_self_contact(
     welded: &[WeldedMesh],
 ) -> Result<SelfContactInfo, config::ConfigError> {
     let cfg = ContactConfig::for_rig(path, explicit)?.unwrap_or_default();
-    let (regions, skipped, error): (Vec<PairRegions>, Vec<String>, Option<String>) =
+    let (mut regions, skipped, mut error): (Vec<PairRegions>, Vec<String>, Option<String>) =
         match derive_pairs_reporting(rig, welded, &cfg.self_contact_regions()) {
             Ok((r, skipped)) => (r, skipped, None),
             Err(e) => (Vec::new(), Vec::new(), Some(e.to_string())),
@@ -260,6 +265,14 @@ fn describe_self_contact(
     } else {
         cfg.resolve_self_contact_with(rig, &derived)?
     };
+    for [a, b] in &settings.separated {
+        match separated_regions(rig, welded, [a, b], &settings.regions) {
+            Ok(found) => regions.extend(found),
+            Err(e) => {
+                error.get_or_insert_with(|| e.to_string());
+            }
+        }
+    }
     let node = |n: usize| {
         rig.nodes
             .get(n)
@@ -306,7 +319,12 @@ fn describe_self_contact(
                 grow_rings: r.grow_rings,
                 reason: r.reason.clone(),
                 direction: source.fixed(),
-                direction_source: source.label(),
+                direction_source: if r.separated() {
+                    "normals"
+                } else {
+                    source.label()
+                },
+                separated: r.separated(),
                 rest_fold_degrees: pre
                     .welded
                     .get(p.body)
@@ -378,6 +396,7 @@ fn print_self_contact(s: &SelfContactInfo) {
     }
     for p in &s.pairs {
         let direction = match p.source {
+            _ if p.separated => "separated regions, direction from the normals (Eq. 2)".into(),
             DirectionSource::Fixed(d) => format!("direction {:?} (configured)", [d.x, d.y, d.z]),
             DirectionSource::Motion => "direction from the relative motion of the parts".into(),
             DirectionSource::Skeleton => match p.rest_fold_degrees {
@@ -402,8 +421,16 @@ fn print_self_contact(s: &SelfContactInfo) {
             own
         };
         println!(
-            "    pair '{}' (body {} '{}', joints '{}' -> '{}'): shared region {} vertices, joint size {:.6}, extent {:.6}, {direction}{own}",
-            p.name, p.body, p.body_name, p.parent, p.child, p.shared, p.joint_size, p.extent
+            "    pair '{}' (body {} '{}', joints '{}' {} '{}'): shared region {} vertices, joint size {:.6}, extent {:.6}, {direction}{own}",
+            p.name,
+            p.body,
+            p.body_name,
+            p.parent,
+            if p.separated { "vs" } else { "->" },
+            p.child,
+            p.shared,
+            p.joint_size,
+            p.extent
         );
         println!("      {}", p.reason);
     }

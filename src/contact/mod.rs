@@ -206,6 +206,15 @@ fn resolve(
         IntersectionRegion::inside(&ints, Side::A, a.mesh)?,
         IntersectionRegion::inside(&ints, Side::B, b.mesh)?,
     ];
+    // Eq. 2 integrates the normals over the exact regions the curves bound (Sec. 4.1): for
+    // two parts of one mesh (separated working regions) it is taken before the inside-twice
+    // test completes the regions, whose cut faces carry no clipped parts.
+    let early = match (surfaces, params.direction) {
+        (Surfaces::PartsOfOneMesh(_), DirectionMode::Automatic) => {
+            Some(pair_direction(a, b, &regions, params)?)
+        }
+        _ => None,
+    };
     let masks = match surfaces {
         Surfaces::PartsOfOneMesh(given) => {
             Some(parts_of_one_mesh([a, b], &ints, given, &mut regions))
@@ -226,7 +235,11 @@ fn resolve(
         None => (a, b),
     };
     let t_int = start.elapsed().as_secs_f64();
-    let Some(dir_a) = pair_direction(a, b, &regions, params)? else {
+    let dir = match early {
+        Some(dir) => dir,
+        None => pair_direction(a, b, &regions, params)?,
+    };
+    let Some(dir_a) = dir else {
         return Ok(None);
     };
     let reach = 2.0 * reach_of(a.mesh, b.mesh);

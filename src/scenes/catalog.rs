@@ -1,4 +1,4 @@
-//! The seven scenes: geometry, skeleton, skin weights and animation of each.
+//! The eight scenes: geometry, skeleton, skin weights and animation of each.
 //!
 //! Conventions: +Y up, lengths in meters-ish scene units, animations LINEAR with keys every
 //! [`KEY_STEP`] seconds or so, starting at the rest pose. Each scene meshes all its bodies with
@@ -222,6 +222,88 @@ fn finger_with(name: &'static str, resolution: u32, stations: [(f64, f64); 5]) -
             tracks,
         }],
     }
+}
+
+// ---------------------------------------------------------------------------------------------
+// two fingers
+
+/// Radius profile of each of the two fingers (base cap center at 0, the knuckle at 0.3, the
+/// tip cap at 1.0), a tapered tube like [`finger`]'s.
+const TWO_FINGER_STATIONS: [(f64, f64); 3] = [(0.0, 0.1), (0.3, 0.095), (1.0, 0.075)];
+
+/// Half the distance between the two fingers' axes: a gap of 0.02 between them at the knuckles.
+const TWO_FINGER_HALF_GAP: f64 = 0.115;
+
+/// Rotation of each finger toward the other at the end of "press", degrees: each tip moves
+/// 0.061 sideways, so they cross by 0.1 at the tips.
+const TWO_FINGER_PRESS: f64 = 5.0;
+
+/// Two fingers side by side on one palm joint, pressed against each other: a contact between
+/// two sibling joints' regions, which no parent/child pair holds (the paper's Fig. 14, the
+/// palm "between the index and middle fingers"; `[[self_contact.separated]]`). One body of two
+/// closed tubes; each blends from `palm` to its own joint over the knuckle band.
+pub(crate) fn two_fingers(resolution: u32) -> SceneSpec {
+    let h = FINGER_REF / f64::from(resolution);
+    let stations = TWO_FINGER_STATIONS;
+    let knuckle = stations[1].0;
+    let mut mesh = MeshData::default();
+    let mut influences = Vec::new();
+    for (k, side) in [-1.0, 1.0].into_iter().enumerate() {
+        let origin = Point3::new(side * TWO_FINGER_HALF_GAP, 0.0, 0.0);
+        let tube = shapes::tapered_tube(&Frame::along(origin, Vector3::y()), &stations, h);
+        let band = [(knuckle, 0.5 * stations[1].1)];
+        influences.extend(tube.positions.iter().map(|p| {
+            let mut inf = chain_influence(p.y, &band);
+            // Skin joint 0 is the palm, 1 + k this finger.
+            for j in inf.joints.iter_mut().filter(|j| **j == 1) {
+                *j = 1 + k as u16;
+            }
+            inf
+        }));
+        append(&mut mesh, tube);
+    }
+    let joints = vec![
+        Joint::at("palm", None, Vector3::zeros()),
+        Joint::at(
+            "index",
+            Some(0),
+            Vector3::new(-TWO_FINGER_HALF_GAP, knuckle, 0.0),
+        ),
+        Joint::at(
+            "middle",
+            Some(0),
+            Vector3::new(TWO_FINGER_HALF_GAP, knuckle, 0.0),
+        ),
+    ];
+    // The index turns toward +X (about -Z), the middle finger toward -X.
+    let tracks = vec![
+        rotation_ramp(1, -Vector3::z(), TWO_FINGER_PRESS, [0.0, 2.5, 2.5]),
+        rotation_ramp(2, Vector3::z(), TWO_FINGER_PRESS, [0.0, 2.5, 2.5]),
+    ];
+    SceneSpec {
+        name: "two_fingers",
+        joints,
+        bodies: vec![SkinnedBody {
+            name: "fingers",
+            mesh,
+            skin: vec![0, 1, 2],
+            influences,
+            analytic_volume: 2.0 * shapes::tapered_tube_volume(&stations),
+        }],
+        clips: vec![Clip {
+            name: "press",
+            tracks,
+        }],
+    }
+}
+
+/// Appends `part` to `mesh` (its vertex indices shifted).
+fn append(mesh: &mut MeshData, part: MeshData) {
+    let offset = mesh.positions.len() as u32;
+    mesh.positions.extend(part.positions);
+    mesh.normals.extend(part.normals);
+    mesh.triangles
+        .extend(part.triangles.iter().map(|t| t.map(|i| i + offset)));
 }
 
 // ---------------------------------------------------------------------------------------------

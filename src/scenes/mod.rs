@@ -49,13 +49,16 @@ pub enum Scene {
     CapsulePair,
     /// Three fingertips pressing one ball: several contact zones on one body (Fig. 14).
     FingertipsOnBall,
+    /// Two fingers of one mesh pressed against each other: sibling joints, separated working
+    /// regions (Fig. 14).
+    TwoFingers,
     /// A sphere pressed into a thick slab: the rigid-limit case (Fig. 17).
     SphereOnPlane,
 }
 
 impl Scene {
     /// Every scene, in a fixed order.
-    pub const ALL: [Scene; 7] = [
+    pub const ALL: [Scene; 8] = [
         Scene::BendingCapsule,
         Scene::Finger,
         Scene::FingerLong,
@@ -63,6 +66,7 @@ impl Scene {
         Scene::CapsulePair,
         Scene::FingertipsOnBall,
         Scene::SphereOnPlane,
+        Scene::TwoFingers,
     ];
 
     /// File stem and command-line name.
@@ -75,6 +79,7 @@ impl Scene {
             Scene::CapsulePair => "capsule_pair",
             Scene::FingertipsOnBall => "fingertips_ball",
             Scene::SphereOnPlane => "sphere_plane",
+            Scene::TwoFingers => "two_fingers",
         }
     }
 
@@ -111,6 +116,11 @@ impl Scene {
                 "a ball (r 0.5) and three separate fingertip capsules; 'squeeze' presses them 0.1 \
                  into the ball one after another: three contact zones on one body (Fig. 14)"
             }
+            Scene::TwoFingers => {
+                "two fingers (r 0.1 to 0.075, length 1) side by side on one mesh and one palm joint; \
+                 'press' turns each 5 deg toward the other: they cross by 0.1 at the tips, a contact \
+                 between sibling joints (separated working regions, Fig. 14)"
+            }
             Scene::SphereOnPlane => {
                 "a sphere (r 0.5) and a 3 x 0.4 x 3 slab; 'press' sinks the sphere half a radius \
                  into the slab: rigid-limit case and bulge map (Fig. 17)"
@@ -122,7 +132,7 @@ impl Scene {
     pub fn reference_length(self) -> f64 {
         match self {
             Scene::BendingCapsule => catalog::BENDING_CAPSULE_REF,
-            Scene::Finger | Scene::FingerLong => catalog::FINGER_REF,
+            Scene::Finger | Scene::FingerLong | Scene::TwoFingers => catalog::FINGER_REF,
             Scene::Mouth => catalog::MOUTH_REF,
             Scene::CapsulePair => catalog::CAPSULE_PAIR_REF,
             Scene::FingertipsOnBall => catalog::FINGERTIPS_BALL_REF,
@@ -145,6 +155,7 @@ impl Scene {
             Scene::CapsulePair => catalog::capsule_pair(resolution),
             Scene::FingertipsOnBall => catalog::fingertips_ball(resolution),
             Scene::SphereOnPlane => catalog::sphere_plane(resolution),
+            Scene::TwoFingers => catalog::two_fingers(resolution),
         })
     }
 }

@@ -25,6 +25,12 @@
 //!   volume solve on the blended positions, with the [`turn_guard`] scaling the displacement
 //!   back where it would turn faces over;
 //! - [`pass`]: every joint pair of a rig, frame by frame, in sweeps.
+//!
+//! The same machinery serves two working regions of one mesh that share no vertex
+//! ([`separated_regions`], named by a rig config: sibling joints such as two fingers, which no
+//! parent/child pair holds): with `R` empty there is no crease to cut and nothing to blend,
+//! the mapping direction is Eq. 2's, and the fold is Sec. 4-5 on two parts of one mesh (the
+//! paper's Fig. 14).
 
 pub mod bulge_guard;
 pub mod crease;
@@ -40,8 +46,8 @@ pub use direction::{skeleton_direction, BoneAxes, DirectionSource, LeafAxisSourc
 pub use joint_tree::{JointTree, TreeSource};
 pub use partition::{partition_of_unity, partition_of_unity_with_stats, PartitionStats};
 pub use regions::{
-    derive_pairs, derive_pairs_reporting, pairs_for_joints, JointPair, PairRegions, RegionOptions,
-    DEFAULT_GROW_RINGS, DEFAULT_THRESHOLD,
+    derive_pairs, derive_pairs_reporting, pairs_for_joints, separated_regions, JointPair,
+    PairRegions, RegionOptions, DEFAULT_GROW_RINGS, DEFAULT_THRESHOLD,
 };
 
 use crate::heat::HeatError;

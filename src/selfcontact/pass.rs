@@ -144,6 +144,22 @@ impl SelfContactPass {
         params: FoldParams,
         directions: &[(String, DirectionSource)],
     ) -> Result<Self, SelfPassError> {
+        Self::with_separated(rig, welded, rest, options, params, directions, Vec::new())
+    }
+
+    /// [`SelfContactPass::new`] with, after the derived pairs, the `separated` pairs of
+    /// regions a rig config names ([`crate::selfcontact::separated_regions`]: two working
+    /// regions of one body that share no vertex, resolved by Sec. 4-5 alone with Eq. 2's
+    /// direction, in the same sweeps as the folds).
+    pub fn with_separated(
+        rig: &Rig,
+        welded: &[WeldedMesh],
+        rest: &[Vec<Point3<f64>>],
+        options: &RegionOptions,
+        params: FoldParams,
+        directions: &[(String, DirectionSource)],
+        separated: Vec<PairRegions>,
+    ) -> Result<Self, SelfPassError> {
         if rest.len() != welded.len() {
             return Err(SelfPassError::Mismatch(format!(
                 "{} bodies, {} position sets",
@@ -154,7 +170,8 @@ impl SelfContactPass {
         let mut built = Vec::new();
         // One winding-number tree per body, shared by its folds.
         let mut windings: Vec<Option<Arc<WindingNumber>>> = vec![None; welded.len()];
-        let (pairs, skipped) = derive_pairs_reporting(rig, welded, options)?;
+        let (mut pairs, skipped) = derive_pairs_reporting(rig, welded, options)?;
+        pairs.extend(separated);
         for regions in pairs {
             let body = regions.pair.body;
             let (rest, triangles) = (&rest[body], &welded[body].triangles);
@@ -553,7 +570,13 @@ impl SelfContactPass {
         let Some(detection) = detection.map_err(fail)? else {
             return Ok(false);
         };
-        let Some(direction) = self.direction(fold, pose, &detection.vertices) else {
+        // Separated regions take Eq. 2's direction from their contact, inside the fold.
+        let direction = if fold.pre.regions.separated() {
+            Some(Vector3::zeros())
+        } else {
+            self.direction(fold, pose, &detection.vertices)
+        };
+        let Some(direction) = direction else {
             out.no_direction += 1;
             return Ok(false);
         };
@@ -604,7 +627,11 @@ impl SelfContactPass {
         out.folds.push(FoldReport {
             body: fold.body,
             name: name.clone(),
-            direction,
+            direction: if fold.pre.regions.separated() {
+                o.contact.sides[0].direction
+            } else {
+                direction
+            },
             output: o,
         });
         Ok(moved)
@@ -696,7 +723,8 @@ impl FurtherSweeps {
     }
 }
 
-/// Flags the vertices of `regions`' shared region in `reach` (sized on first use).
+/// Flags the vertices of `regions`' shared region in `reach` (sized on first use); both regions'
+/// for separated ones.
 fn add_shared_region(reach: &mut Vec<bool>, regions: &PairRegions) {
     if reach.is_empty() {
         reach.resize(regions.w1.len(), false);
@@ -704,6 +732,12 @@ fn add_shared_region(reach: &mut Vec<bool>, regions: &PairRegions) {
     for &v in &regions.shared {
         if let Some(r) = reach.get_mut(v as usize) {
             *r = true;
+        }
+    }
+    // Separated regions have no shared region: their contact may lie anywhere in them.
+    if regions.separated() {
+        for (r, (&a, &b)) in reach.iter_mut().zip(regions.w1.iter().zip(&regions.w2)) {
+            *r |= a || b;
         }
     }
 }

@@ -451,17 +451,15 @@ pub struct Detection {
 }
 
 impl FoldPre {
-    /// Whether the shared region is posed smaller than [`crate::pass::COLLAPSED`] times its
-    /// rest size (a joint scaled to 0): such a fold is not resolved (nothing to resolve at that
-    /// size, and all its faces overlap each other). Sizes here are the diagonals of the
+    /// Whether the shared region (both regions, when separated) is posed smaller than
+    /// [`crate::pass::COLLAPSED`] times its rest size (a joint scaled to 0): such a fold is not
+    /// resolved (nothing to resolve at that size, and all its faces overlap each other). Sizes here are the diagonals of the
     /// region's bounding box, posed and at rest (cheaper than the joint's size, and a guard
     /// at 1e-6 does not see the orientation's factor of at most √3).
     pub fn collapsed(&self, positions: &[Point3<f64>]) -> bool {
         let size = self.regions.box_diagonal(positions);
         // NaN counts as collapsed (no size to resolve a fold at).
-        self.regions.shared.is_empty()
-            || size.is_nan()
-            || size < crate::pass::COLLAPSED * self.rest_box
+        size.is_nan() || size < crate::pass::COLLAPSED * self.rest_box
     }
 
     /// Detection with the rest partition: `None` when the fold does not intersect itself at
@@ -572,12 +570,34 @@ pub fn resolve_detected_in(
         .refit_changed(positions, triangles)
         .then(|| InsideTwice::new(std::borrow::Cow::Borrowed(&*winding), positions, triangles));
     let tree = inside.as_ref();
-    let (crease, truncated) = cut_the_crease(pre, detection, geometry, tree, params)?;
+    let separated = pre.regions.separated();
+    let (crease, truncated) = if separated {
+        separated_parts(pre, positions, triangles)?
+    } else {
+        cut_the_crease(pre, detection, geometry, tree, params)?
+    };
     timings.crease = laps.next();
-    let contact = truncated_contact(&truncated, positions, normals, direction, params, tree)?;
+    // Separated regions: their intersection regions are apart, so Eq. 2 applies (Sec. 6
+    // replaces it by the skeleton's direction only where the regions overlap).
+    let mode = if separated {
+        DirectionMode::Automatic
+    } else {
+        DirectionMode::Fixed(direction)
+    };
+    let contact = truncated_contact(&truncated, positions, normals, mode, params, tree)?;
     timings.contact = laps.next();
     let Some(mut contact) = contact else {
         return Ok(None);
+    };
+    // The direction the regions deform along: W1's outward one, the contact's own for
+    // separated regions.
+    let geometry = &FoldInput {
+        direction: if separated {
+            contact.sides[0].direction
+        } else {
+            direction
+        },
+        ..*geometry
     };
     // Intersecting faces without a contact zone on either side (zero depth: the Quaternius
     // robot's rigid finger pieces, modeled interpenetrating) leave every vertex where it is:
@@ -586,7 +606,7 @@ pub fn resolve_detected_in(
     if contact.sides.iter().all(|s| s.zone.vertices.is_empty()) {
         return Ok(None);
     }
-    if let Some(tree) = tree {
+    if let Some(tree) = tree.filter(|_| !separated) {
         let crease_input = CreaseVertices {
             on_w1: &crease.on_w1,
             positions,
@@ -635,7 +655,8 @@ pub struct FoldInput<'a> {
     pub normals: &'a [Vector3<f64>],
     /// Mesh triangles.
     pub triangles: &'a [[u32; 3]],
-    /// `d̂_12`, W1's outward direction.
+    /// `d̂_12`, W1's outward direction (not read for separated regions,
+    /// [`PairRegions::separated`], which take Eq. 2's from their contact).
     pub direction: Vector3<f64>,
     /// What the turn guard keeps faces from turning against ([`FoldParams::turn_guard`]):
     /// the frame's input and the skinning's normals; `None`: no guard.
@@ -709,6 +730,27 @@ fn cut_the_crease(
         &labels,
     )?;
     Ok((crease, truncated))
+}
+
+/// Separated regions (no shared region, [`PairRegions::separated`]): no crease to cut; the
+/// parts are the two regions as they are (the rest labels), indexed for Sec. 4.2-4.4.
+fn separated_parts(
+    pre: &FoldPre,
+    positions: &[Point3<f64>],
+    triangles: &[[u32; 3]],
+) -> Result<(Crease, [MeshIndex; 2]), FoldError> {
+    let parts = MeshIndex::self_contact_parts_within(
+        Some(&pre.parts_tree),
+        positions,
+        triangles,
+        &pre.labels,
+    )?;
+    let crease = Crease {
+        on_w1: pre.regions.w1.clone(),
+        value: 0.0,
+        stray: 0,
+    };
+    Ok((crease, parts))
 }
 
 /// Sec. 5 on both working regions with the mapping field `σ d̂` (Sec. 6 "Consistent mapping
@@ -856,7 +898,7 @@ fn truncated_contact(
     truncated: &[MeshIndex; 2],
     positions: &[Point3<f64>],
     normals: &[Vector3<f64>],
-    direction: Vector3<f64>,
+    direction: DirectionMode,
     params: &FoldParams,
     tree: Option<&InsideTwice>,
 ) -> Result<Option<Contact>, FoldError> {
@@ -874,7 +916,7 @@ fn truncated_contact(
         stiffness_a: params.stiffness_1,
         tau: params.tau,
         safeguard_angle: params.safeguard_angle,
-        direction: DirectionMode::Fixed(direction),
+        direction,
     };
     Ok(resolve_self_pair(side(0), side(1), &pair, tree)?)
 }
