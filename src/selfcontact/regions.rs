@@ -272,7 +272,7 @@ pub fn pairs_for_joints<S: AsRef<str>>(
 /// Side `k`'s region: the welded vertices whose summed weight on `sides[k]`'s joints (node
 /// names, `node<i>` for a node without one, as `contact-skin info` lists them) exceeds the
 /// threshold and the other side's, grown by the configured rings together and taken as faces
-/// ([`grow_apart`]). The two never share a vertex: `R` is empty and the pair is processed by
+/// (`grow_apart`). The two never share a vertex: `R` is empty and the pair is processed by
 /// Sec. 4-5 alone (no crease cut, no partition of unity, the mapping direction from the
 /// normals, Eq. 2). One entry per body whose skin holds every joint and on which both regions
 /// have faces; none is an error, as are an unknown joint, an empty side and a joint on both.
