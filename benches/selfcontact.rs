@@ -49,6 +49,25 @@ fn setup_with(
     (rig, pre, pass)
 }
 
+/// The pass of `rig` with its derived pairs and the separated regions of its skeleton
+/// ([`contact_skin::selfcontact::separated_from_skeleton`]).
+fn with_skeleton_pairs(rig: &Rig, pre: &Precomputed) -> SelfContactPass {
+    let rest = frames::welded_positions(rig, pre, None, 0.0);
+    let options = RegionOptions::default();
+    let separated = contact_skin::selfcontact::separated_from_skeleton(rig, &pre.welded, &options)
+        .expect("separated regions");
+    SelfContactPass::with_separated(
+        rig,
+        &pre.welded,
+        &rest,
+        &options,
+        FoldParams::default(),
+        &[],
+        separated,
+    )
+    .expect("pass")
+}
+
 fn breakdown(name: &str, passes: usize, threads: usize) {
     let (rig, pre, pass, times) = setup(name, passes);
     let mut rows: Vec<(FoldTimings, f64)> = Vec::new();
@@ -183,6 +202,20 @@ fn bench(c: &mut Criterion) {
                 })
             })
         });
+        // With the skeleton's separated regions (the CLI's default): the finger's two more
+        // pairs (each joint against its grandchild's subtree) detect in every frame.
+        let skeleton = with_skeleton_pairs(&rig, &pre).with_passes(2);
+        g.bench_function(
+            format!("{name}/frame without contact/pass, skeleton pairs"),
+            |b| {
+                b.iter(|| {
+                    pool.install(|| {
+                        let mut pos = input.clone();
+                        black_box(skeleton.run(&rig, &pose, &mut pos).expect("pass"))
+                    })
+                })
+            },
+        );
     }
     g.finish();
     batch(c);

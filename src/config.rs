@@ -34,6 +34,7 @@
 //! bulge_guard = true              # scale the bulge back where it would enter the other part
 //! free_isolated_crease = false    # true: isolated crease vertices stay out of the zones (lips)
 //! direction = "skeleton"          # every pair's default: "skeleton" or "motion"
+//! separated_from_skeleton = true  # also sibling subtrees and joints vs grandchildren (default)
 //! [[self_contact.pair]]
 //! name = "lips/head-jaw"          # a derived joint pair (`contact-skin info`)
 //! direction = [0.0, -1.0, 0.0]    # W1's (parent side's) outward direction at the fold,
@@ -504,12 +505,15 @@ pub struct SelfContactSpec {
     /// separated]]`).
     #[serde(default)]
     pub separated: Vec<SeparatedSpec>,
+    /// Also derive separated working regions from the skeleton (default `true`;
+    /// [`crate::selfcontact::separated_from_skeleton`]).
+    pub separated_from_skeleton: Option<bool>,
 }
 
 /// One `[[self_contact.separated]]` table: two working regions of one skinned body that share
 /// no vertex, each the vertices weighted on its joints (2021 Sec. 4-5 on parts of one mesh,
-/// the paper's Fig. 14: fingertips pressing their own palm; [`crate::selfcontact::
-/// separated_regions`]).
+/// the paper's Fig. 14: fingertips pressing their own palm;
+/// [`crate::selfcontact::separated_regions`]).
 #[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SeparatedSpec {
@@ -591,6 +595,9 @@ pub struct SelfContactSettings {
     /// The joints of both sides of each pair of separated regions
     /// (`[[self_contact.separated]]`), in the file's order.
     pub separated: Vec<[Vec<String>; 2]>,
+    /// Whether separated regions are also derived from the skeleton
+    /// ([`crate::selfcontact::separated_from_skeleton`]).
+    pub separated_from_skeleton: bool,
 }
 
 /// A rig's contact configuration (see the module documentation).
@@ -1374,6 +1381,7 @@ impl ContactConfig {
             passes,
             max_passes,
             separated: spec.separated.iter().map(|s| s.sides.clone()).collect(),
+            separated_from_skeleton: spec.separated_from_skeleton.unwrap_or(true),
         })
     }
 }

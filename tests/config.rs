@@ -679,6 +679,7 @@ safeguard_angle = 75.5
 extent_factor = 0.25
 gamma = 0.5
 omega = 1                       # an integer
+separated_from_skeleton = false # on by default
 
 [[self_contact.pair]]
 name = "lips/head-jaw"
@@ -736,6 +737,7 @@ fn the_self_contact_table_parses_and_resolves() {
         passes: 1,
         max_passes: 1,
         separated: Vec::new(),
+        separated_from_skeleton: false,
     };
     assert_eq!(settings, expected);
     // The same from the pairs given by the caller (as the pass lists them).
@@ -866,6 +868,7 @@ fn without_a_self_contact_table_the_pass_defaults_apply() {
         passes: DEFAULT_FOLD_PASSES,
         max_passes: DEFAULT_MAX_FOLD_PASSES,
         separated: Vec::new(),
+        separated_from_skeleton: true,
     };
     // Without a table the pass is off (opt-in while experimental); an empty table turns it
     // on with the defaults.

@@ -1,7 +1,8 @@
 //! Separated working regions of one skinned mesh (2021 Sec. 4-5 on two parts of one mesh, the
 //! paper's Fig. 14, `[[self_contact.separated]]`): the committed `two_fingers` rig, whose
 //! fingers are sibling joints pressed against each other. No parent/child pair holds that
-//! contact; the pair of separated regions `index` / `middle` resolves it.
+//! contact; the pair of separated regions `index` / `middle` resolves it, named in a
+//! configuration or derived from the skeleton (`separated_from_skeleton`).
 
 #[path = "common/scenes.rs"]
 mod scenes;
@@ -9,11 +10,13 @@ mod scenes;
 use contact_skin::mesh::operators::{vertex_normals, NormalWeighting};
 use contact_skin::mesh::signed_volume;
 use contact_skin::report::metrics;
-use contact_skin::selfcontact::fold::FoldParams;
 use contact_skin::selfcontact::pass::SelfContactPass;
-use contact_skin::selfcontact::{separated_regions, RegionOptions, SelfContactError};
+use contact_skin::selfcontact::{
+    extend_distinct, separated_from_skeleton, separated_regions, PairRegions, RegionOptions,
+    SelfContactError,
+};
 use nalgebra::Point3;
-use scenes::{load, welded_positions, Loaded};
+use scenes::{load, self_pass_separated, Loaded};
 
 const INDEX: &[&str] = &["index"];
 const MIDDLE: &[&str] = &["middle"];
@@ -21,21 +24,11 @@ const MIDDLE: &[&str] = &["middle"];
 /// The self-contact pass of `l` with the derived pairs and, for `Some(sides)`, the separated
 /// regions of `sides`.
 fn pass(l: &Loaded, sides: Option<[&[&str]; 2]>) -> SelfContactPass {
-    let rest = welded_positions(&l.rig, &l.pre, 0.0, None);
     let options = RegionOptions::default();
     let separated = sides.map_or_else(Vec::new, |sides| {
         separated_regions(&l.rig, &l.pre.welded, sides, &options).expect("separated regions")
     });
-    SelfContactPass::with_separated(
-        &l.rig,
-        &l.pre.welded,
-        &rest,
-        &options,
-        FoldParams::default(),
-        &[],
-        separated,
-    )
-    .expect("pass")
+    self_pass_separated(l, separated)
 }
 
 fn penetrating(l: &Loaded, p: &[Point3<f64>]) -> usize {
@@ -167,4 +160,67 @@ fn separated_regions_are_checked() {
         regions([&[], MIDDLE]),
         Err(SelfContactError::UnusablePair { .. })
     ));
+}
+
+/// The separated pairs the skeleton gives a rig, by name.
+fn skeleton_pairs(l: &Loaded) -> Vec<PairRegions> {
+    separated_from_skeleton(&l.rig, &l.pre.welded, &RegionOptions::default()).expect("derived")
+}
+
+/// The skeleton gives the sibling fingers the pair a configuration names (the same regions,
+/// so the same output to the bit), and a chain each joint against its grandchild's subtree;
+/// the regions of every derived pair share no vertex.
+#[test]
+fn the_skeleton_gives_siblings_and_grandchildren_their_separated_regions() {
+    let l = load("two_fingers", 2);
+    let derived = skeleton_pairs(&l);
+    let names: Vec<&str> = derived.iter().map(|r| r.pair.name.as_str()).collect();
+    assert_eq!(names, ["fingers/index* vs middle*"]);
+    let named = separated_regions(
+        &l.rig,
+        &l.pre.welded,
+        [INDEX, MIDDLE],
+        &RegionOptions::default(),
+    )
+    .expect("index / middle");
+    assert_eq!(derived[0].w1_faces, named[0].w1_faces);
+    assert_eq!(derived[0].w2_faces, named[0].w2_faces);
+    // A configured pair the skeleton also derives is kept once, under its configured name.
+    let mut both = named.clone();
+    extend_distinct(&mut both, derived);
+    assert_eq!(both.len(), 1);
+    assert_eq!(both[0].pair.name, named[0].pair.name);
+
+    let finger = load("finger", 2);
+    let derived = skeleton_pairs(&finger);
+    let names: Vec<&str> = derived.iter().map(|r| r.pair.name.as_str()).collect();
+    assert_eq!(
+        names,
+        ["finger/metacarpal vs middle*", "finger/proximal vs distal*"]
+    );
+    for r in &derived {
+        assert!(r.separated(), "{}", r.pair.name);
+        assert!(
+            r.w1.iter().zip(&r.w2).all(|(a, b)| !(*a && *b)),
+            "{}: the regions share a vertex",
+            r.pair.name
+        );
+    }
+    // The bending capsule's one joint has no sibling and no grandchild.
+    assert!(skeleton_pairs(&load("bending_capsule", 2)).is_empty());
+}
+
+/// Through the pass, the derived pair resolves the sibling fingers as the configured one does:
+/// the same output to the bit.
+#[test]
+fn the_skeletons_pair_resolves_the_sibling_fingers_as_the_configured_one() {
+    let l = load("two_fingers", 11);
+    let derived = self_pass_separated(&l, skeleton_pairs(&l));
+    let a = run(&l, &derived);
+    let b = run(&l, &pass(&l, Some([INDEX, MIDDLE])));
+    assert!(a.separated > 0);
+    assert_eq!(a.outs, b.outs);
+    let last = a.outs.len() - 1;
+    assert!(penetrating(&l, &a.ins[last]) > 100);
+    assert_eq!(penetrating(&l, &a.outs[last]), 0);
 }

@@ -11,7 +11,7 @@ pub use contact_skin::report::timings::{median, median_folds, median_stages, Fol
 use contact_skin::rig::Rig;
 use contact_skin::selfcontact::fold::FoldTimings;
 use contact_skin::selfcontact::pass::{SelfContactPass, SelfPassOutput};
-use contact_skin::selfcontact::separated_regions;
+use contact_skin::selfcontact::{extend_distinct, separated_from_skeleton, separated_regions};
 use nalgebra::Point3;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -124,6 +124,10 @@ impl SelfRun {
                 [a, b],
                 &settings.regions,
             )?);
+        }
+        if settings.separated_from_skeleton {
+            let derived = separated_from_skeleton(rig, &pre.welded, &settings.regions)?;
+            extend_distinct(&mut separated, derived);
         }
         let pass = SelfContactPass::with_separated(
             rig,

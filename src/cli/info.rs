@@ -6,7 +6,10 @@ use contact_skin::contact::zones::DEFAULT_SAFEGUARD_ANGLE;
 use contact_skin::mesh::{TopologyReport, WeldedMesh};
 use contact_skin::pass::DEFAULT_EXTENT_FACTOR;
 use contact_skin::rig::{self, Rig};
-use contact_skin::selfcontact::{derive_pairs_reporting, separated_regions, PairRegions};
+use contact_skin::selfcontact::{
+    derive_pairs_reporting, extend_distinct, separated_from_skeleton, separated_regions,
+    PairRegions,
+};
 use contact_skin::selfcontact::{BoneAxes, DirectionSource};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -139,6 +142,9 @@ struct SelfContactInfo {
     extent: f64,
     gamma: f64,
     omega: f64,
+    /// Separated regions are also derived from the skeleton (`[self_contact]
+    /// separated_from_skeleton`, default true).
+    separated_from_skeleton: bool,
     /// Joint pairs per body, in the order the pass resolves them.
     pairs: Vec<SelfPairInfo>,
     /// Why the pairs could not be derived (`null` when they could).
@@ -273,6 +279,15 @@ fn describe_self_contact(
             }
         }
     }
+    if settings.separated_from_skeleton {
+        match separated_from_skeleton(rig, welded, &settings.regions) {
+            // As the pass does: a configured pair the skeleton also derives is listed once.
+            Ok(found) => extend_distinct(&mut regions, found),
+            Err(e) => {
+                error.get_or_insert_with(|| e.to_string());
+            }
+        }
+    }
     let node = |n: usize| {
         rig.nodes
             .get(n)
@@ -348,6 +363,7 @@ fn describe_self_contact(
         extent: f.deform.extent,
         gamma: f.deform.gamma,
         omega: f.deform.omega,
+        separated_from_skeleton: settings.separated_from_skeleton,
         pairs,
         error,
         skipped,
@@ -356,7 +372,7 @@ fn describe_self_contact(
 
 fn print_self_contact(s: &SelfContactInfo) {
     println!(
-        "  self-contact ({}{}): {} sweep(s) per frame{}, threshold {}, grow rings {}, stiffness {}, tau {}, safeguard {} deg, extent {}, gamma {}, omega {}",
+        "  self-contact ({}{}): {} sweep(s) per frame{}, threshold {}, grow rings {}, stiffness {}, tau {}, safeguard {} deg, extent {}, gamma {}, omega {}, separated regions from the skeleton {}",
         if s.enabled { "on" } else { "off" },
         if s.configured {
             ", [self_contact] of the configuration"
@@ -379,7 +395,8 @@ fn print_self_contact(s: &SelfContactInfo) {
             None => format!("{:.6}", s.extent),
         },
         s.gamma,
-        s.omega
+        s.omega,
+        if s.separated_from_skeleton { "on" } else { "off" }
     );
     if let Some(e) = &s.error {
         println!("    joint pairs cannot be derived: {e}");

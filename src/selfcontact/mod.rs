@@ -40,15 +40,17 @@ pub mod joint_tree;
 pub mod partition;
 pub mod pass;
 pub mod regions;
+pub mod separated;
 pub mod turn_guard;
 
 pub use direction::{skeleton_direction, BoneAxes, DirectionSource, LeafAxisSource, RestFold};
 pub use joint_tree::{JointTree, TreeSource};
 pub use partition::{partition_of_unity, partition_of_unity_with_stats, PartitionStats};
 pub use regions::{
-    derive_pairs, derive_pairs_reporting, pairs_for_joints, separated_regions, JointPair,
-    PairRegions, RegionOptions, DEFAULT_GROW_RINGS, DEFAULT_THRESHOLD,
+    derive_pairs, derive_pairs_reporting, pairs_for_joints, JointPair, PairRegions, RegionOptions,
+    DEFAULT_GROW_RINGS, DEFAULT_THRESHOLD,
 };
+pub use separated::{extend_distinct, separated_from_skeleton, separated_regions};
 
 use crate::heat::HeatError;
 use crate::solve::SolveError;

@@ -135,7 +135,9 @@ impl SelfContactPass {
     /// Derives the joint pairs of every body from the skin weights and precomputes them
     /// (`rest`: welded rest positions per body, at the rig's rest pose). `directions`: where
     /// each named pair's direction comes from (a fixed direction is W1's outward side at the
-    /// fold, e.g. vertical for the lips); other pairs use the skeleton's.
+    /// fold, e.g. vertical for the lips); other pairs use the skeleton's. The parent/child
+    /// pairs only: `pose` also gives the pass the skeleton's separated regions
+    /// ([`SelfContactPass::with_separated`], [`crate::selfcontact::separated_from_skeleton`]).
     pub fn new(
         rig: &Rig,
         welded: &[WeldedMesh],
@@ -148,7 +150,9 @@ impl SelfContactPass {
     }
 
     /// [`SelfContactPass::new`] with, after the derived pairs, the `separated` pairs of
-    /// regions a rig config names ([`crate::selfcontact::separated_regions`]: two working
+    /// regions a rig config names or the skeleton gives
+    /// ([`crate::selfcontact::separated_regions`],
+    /// [`crate::selfcontact::separated_from_skeleton`]: two working
     /// regions of one body that share no vertex, resolved by Sec. 4-5 alone with Eq. 2's
     /// direction, in the same sweeps as the folds).
     pub fn with_separated(

@@ -11,8 +11,8 @@
 //! shared region `R` is the set of vertices in both, and carries the partition of unity `β`
 //! ([`super::partition`]). Pairs whose `R` is empty are skipped.
 //!
-//! [`separated_regions`] gives the regions of two sets of joints that share no vertex, for the
-//! contacts no parent/child pair holds (sibling joints), from a rig config.
+//! [`super::separated`] gives the regions of two sets of joints that share no vertex, for the
+//! contacts no parent/child pair holds (sibling joints).
 //!
 //! The welded weights of a vertex are the row of its representative file vertex
 //! ([`WeldedMesh::representative`]); the rest positions are the bind positions of the body.
@@ -105,7 +105,7 @@ impl PairRegions {
     /// do not depend on the orientation the rig is given in (with the box diagonal, the former
     /// size, the finger rotated by 1 rad came out 0.15 h away from its output rotated;
     /// `a_fold_and_its_mirror_image_agree`).
-    /// Separated regions ([`separated_regions`]): the smaller of the two regions' sizes (a
+    /// Separated regions ([`super::separated_regions`]): the smaller of the two regions' sizes (a
     /// hand against the hips deforms over about a hand).
     pub fn joint_size(&self, rest: &[Point3<f64>], triangles: &[[u32; 3]]) -> f64 {
         let size_of = |faces: &[u32]| {
@@ -145,7 +145,7 @@ impl PairRegions {
         )
     }
 
-    /// Whether the two regions share no vertex ([`separated_regions`]): Sec. 4-5 alone, no
+    /// Whether the two regions share no vertex ([`super::separated_regions`]): Sec. 4-5 alone, no
     /// crease cut and no blend. Derived pairs always share some (those that do not are
     /// skipped).
     pub fn separated(&self) -> bool {
@@ -266,152 +266,7 @@ pub fn pairs_for_joints<S: AsRef<str>>(
     Ok(out)
 }
 
-/// Two separated working regions of one skinned mesh, named by their joints (2021 Sec. 4-5 on
-/// parts of one mesh, as the fingertips pressing the palm of their own hand in the paper's
-/// Fig. 14; `PIPELINE.md`, "Working regions": a rig config "may name regions by joint names").
-/// Side `k`'s region: the welded vertices whose summed weight on `sides[k]`'s joints (node
-/// names, `node<i>` for a node without one, as `contact-skin info` lists them) exceeds the
-/// threshold and the other side's, grown by the configured rings together and taken as faces
-/// (`grow_apart`). The two never share a vertex: `R` is empty and the pair is processed by
-/// Sec. 4-5 alone (no crease cut, no partition of unity, the mapping direction from the
-/// normals, Eq. 2). One entry per body whose skin holds every joint and on which both regions
-/// have faces; none is an error, as are an unknown joint, an empty side and a joint on both.
-pub fn separated_regions<S: AsRef<str>>(
-    rig: &Rig,
-    welded: &[WeldedMesh],
-    sides: [&[S]; 2],
-    options: &RegionOptions,
-) -> Result<Vec<PairRegions>, SelfContactError> {
-    check_options(options)?;
-    check_welded(rig, welded)?;
-    let names = sides.map(|s| s.iter().map(|n| n.as_ref().to_owned()).collect::<Vec<_>>());
-    let unusable = |reason: String| SelfContactError::UnusablePair {
-        parent: names[0].join("+"),
-        child: names[1].join("+"),
-        reason,
-    };
-    let find = |side: &Vec<String>| -> Result<Vec<usize>, SelfContactError> {
-        side.iter()
-            .map(|name| {
-                (0..rig.nodes.len())
-                    .find(|&i| node_name(rig, i) == *name)
-                    .ok_or_else(|| SelfContactError::UnknownJoint(name.clone()))
-            })
-            .collect()
-    };
-    let nodes = [find(&names[0])?, find(&names[1])?];
-    if nodes.iter().any(Vec::is_empty) {
-        return Err(unusable("a side names no joint".into()));
-    }
-    if nodes[0].iter().any(|j| nodes[1].contains(j)) {
-        return Err(unusable("a joint is on both sides".into()));
-    }
-    let mut out = Vec::new();
-    for (b, mesh) in welded.iter().enumerate() {
-        out.extend(separated_on_body(rig, b, mesh, &nodes, options)?);
-    }
-    if out.is_empty() {
-        return Err(unusable(
-            "no body's skin holds every joint with faces on both sides".into(),
-        ));
-    }
-    Ok(out)
-}
-
-/// [`separated_regions`] of the joint nodes `nodes` on body `b`, `None` when its skin lacks
-/// one of them or a side has no face.
-fn separated_on_body(
-    rig: &Rig,
-    b: usize,
-    mesh: &WeldedMesh,
-    nodes: &[Vec<usize>; 2],
-    options: &RegionOptions,
-) -> Result<Option<PairRegions>, SelfContactError> {
-    let body = &rig.bodies[b];
-    let skin = skin_of(rig, body)?;
-    let index = |side: &Vec<usize>| -> Option<Vec<usize>> {
-        side.iter()
-            .map(|&node| skin.joints.iter().position(|&j| j == node))
-            .collect()
-    };
-    let (Some(j1), Some(j2)) = (index(&nodes[0]), index(&nodes[1])) else {
-        return Ok(None);
-    };
-    check_body(body, mesh, skin)?;
-    let adjacency = vertex_adjacency(mesh.vertex_count(), &mesh.triangles)?;
-    let seeds = side_seeds(body, mesh, [&j1, &j2], options.threshold);
-    let grown = grow_apart(seeds, &adjacency, options.grow_rings);
-    let [(w1_faces, w1), (w2_faces, w2)] = grown.map(|g| as_faces(&mesh.triangles, &g));
-    if w1_faces.is_empty() || w2_faces.is_empty() {
-        return Ok(None);
-    }
-    let label = |side: &Vec<usize>| {
-        let side: Vec<String> = side.iter().map(|&n| node_name(rig, n)).collect();
-        side.join("+")
-    };
-    let [l1, l2] = [label(&nodes[0]), label(&nodes[1])];
-    let name = format!("{}/{l1} vs {l2}", body.name);
-    let reason = format!(
-        "{name}: separated regions (no shared region; Sec. 4-5 with the direction of Eq. 2): \
-         W1 = weight on {l1} > {t}, W2 = weight on {l2} > {t}, each grown {rings} rings: W1 \
-         {} vertices / {} faces, W2 {} vertices / {} faces",
-        count(&w1),
-        w1_faces.len(),
-        count(&w2),
-        w2_faces.len(),
-        t = options.threshold,
-        rings = options.grow_rings,
-    );
-    Ok(Some(PairRegions {
-        pair: JointPair {
-            body: b,
-            parent_joint: nodes[0][0],
-            child_joint: nodes[1][0],
-            bone_end: None,
-            name,
-        },
-        w1_faces,
-        w2_faces,
-        beta: w1.iter().map(|&a| if a { 1.0 } else { 0.0 }).collect(),
-        w1,
-        w2,
-        shared: Vec::new(),
-        shared_faces: Vec::new(),
-        partition: PartitionStats::default(),
-        grow_rings: options.grow_rings,
-        reason,
-    }))
-}
-
-/// Per side, the welded vertices whose summed weight on the side's skin joints exceeds
-/// `threshold` and is the larger of the two sides' (ties go to the first side): skins blend
-/// neighbouring joints (Fox's neck and upper arms share a vertex), and a vertex belongs to one
-/// side only.
-fn side_seeds(
-    body: &Body,
-    mesh: &WeldedMesh,
-    sides: [&[usize]; 2],
-    threshold: f64,
-) -> [Vec<bool>; 2] {
-    let mut seeds = [
-        vec![false; mesh.vertex_count()],
-        vec![false; mesh.vertex_count()],
-    ];
-    for (v, &rep) in mesh.representative.iter().enumerate() {
-        let on = sides.map(|joints| {
-            body.weights
-                .row(rep as usize)
-                .filter(|(j, _)| joints.contains(j))
-                .map(|(_, w)| w)
-                .sum::<f64>()
-        });
-        seeds[0][v] = on[0] > threshold && on[0] >= on[1];
-        seeds[1][v] = on[1] > threshold && on[1] > on[0];
-    }
-    seeds
-}
-
-fn check_options(options: &RegionOptions) -> Result<(), SelfContactError> {
+pub(super) fn check_options(options: &RegionOptions) -> Result<(), SelfContactError> {
     if options.threshold.is_finite() && options.threshold >= 0.0 {
         Ok(())
     } else {
@@ -422,7 +277,7 @@ fn check_options(options: &RegionOptions) -> Result<(), SelfContactError> {
     }
 }
 
-fn check_welded(rig: &Rig, welded: &[WeldedMesh]) -> Result<(), SelfContactError> {
+pub(super) fn check_welded(rig: &Rig, welded: &[WeldedMesh]) -> Result<(), SelfContactError> {
     if welded.len() == rig.bodies.len() {
         Ok(())
     } else {
@@ -434,7 +289,7 @@ fn check_welded(rig: &Rig, welded: &[WeldedMesh]) -> Result<(), SelfContactError
     }
 }
 
-fn skin_of<'a>(rig: &'a Rig, body: &Body) -> Result<&'a Skin, SelfContactError> {
+pub(super) fn skin_of<'a>(rig: &'a Rig, body: &Body) -> Result<&'a Skin, SelfContactError> {
     rig.skins.get(body.skin).ok_or_else(|| {
         SelfContactError::InconsistentInput(format!(
             "body {} uses skin {} of {}",
@@ -446,7 +301,11 @@ fn skin_of<'a>(rig: &'a Rig, body: &Body) -> Result<&'a Skin, SelfContactError> 
 }
 
 /// Checks that the welded mesh, the weights and the skin match the body.
-fn check_body(body: &Body, mesh: &WeldedMesh, skin: &Skin) -> Result<(), SelfContactError> {
+pub(super) fn check_body(
+    body: &Body,
+    mesh: &WeldedMesh,
+    skin: &Skin,
+) -> Result<(), SelfContactError> {
     let n = body.vertex_count();
     let bad = |what: String| {
         Err(SelfContactError::InconsistentInput(format!(
@@ -744,7 +603,7 @@ fn derivation(
     )
 }
 
-fn count(flags: &[bool]) -> usize {
+pub(super) fn count(flags: &[bool]) -> usize {
     flags.iter().filter(|&&x| x).count()
 }
 
@@ -771,50 +630,8 @@ fn grow(mut set: Vec<bool>, adjacency: &[Vec<u32>], rings: usize) -> Vec<bool> {
     set
 }
 
-/// Both `seeds` grown ring by ring together, `rings` times: a vertex goes to the side whose
-/// ring reaches it first, to neither when both reach it in the same ring, so that the two
-/// sets stay disjoint where they grow into each other.
-fn grow_apart(seeds: [Vec<bool>; 2], adjacency: &[Vec<u32>], rings: usize) -> [Vec<bool>; 2] {
-    let mut sets = seeds;
-    let mut fronts = sets.each_ref().map(|set| {
-        (0..set.len())
-            .filter(|&v| set[v])
-            .map(|v| v as u32)
-            .collect::<Vec<u32>>()
-    });
-    for _ in 0..rings {
-        let reached = fronts.each_ref().map(|front| {
-            let mut next: Vec<u32> = front
-                .iter()
-                .flat_map(|&v| adjacency[v as usize].iter().copied())
-                .filter(|&u| !sets[0][u as usize] && !sets[1][u as usize])
-                .collect();
-            next.sort_unstable();
-            next.dedup();
-            next
-        });
-        let contested = |u: &u32, other: &[u32]| other.binary_search(u).is_ok();
-        fronts = [0, 1].map(|k| {
-            reached[k]
-                .iter()
-                .copied()
-                .filter(|u| !contested(u, &reached[1 - k]))
-                .collect()
-        });
-        for (set, front) in sets.iter_mut().zip(&fronts) {
-            for &u in front {
-                set[u as usize] = true;
-            }
-        }
-        if fronts.iter().all(Vec::is_empty) {
-            break;
-        }
-    }
-    sets
-}
-
 /// The faces with all three corners in `set`, and the vertices of those faces.
-fn as_faces(triangles: &[[u32; 3]], set: &[bool]) -> (Vec<u32>, Vec<bool>) {
+pub(super) fn as_faces(triangles: &[[u32; 3]], set: &[bool]) -> (Vec<u32>, Vec<bool>) {
     let mut vertices = vec![false; set.len()];
     let mut faces = Vec::new();
     for (f, t) in triangles.iter().enumerate() {

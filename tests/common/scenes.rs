@@ -183,3 +183,22 @@ pub fn stiffness_for(kbar: f64) -> f64 {
         kbar / (1.0 - kbar)
     }
 }
+
+/// The self-contact pass of `l` (default regions and parameters): its parent/child pairs and
+/// the `separated` regions.
+pub fn self_pass_separated(
+    l: &Loaded,
+    separated: Vec<contact_skin::selfcontact::PairRegions>,
+) -> contact_skin::selfcontact::pass::SelfContactPass {
+    let rest = welded_positions(&l.rig, &l.pre, 0.0, None);
+    contact_skin::selfcontact::pass::SelfContactPass::with_separated(
+        &l.rig,
+        &l.pre.welded,
+        &rest,
+        &contact_skin::selfcontact::RegionOptions::default(),
+        contact_skin::selfcontact::fold::FoldParams::default(),
+        &[],
+        separated,
+    )
+    .expect("self-contact pass")
+}
