@@ -131,9 +131,10 @@ fn skeleton_sides(rig: &Rig, tree: &JointTree, skin: &crate::rig::Skin) -> Vec<S
         .collect();
     let name = |j: usize| node_name(rig, skin.joints[j]);
     let subtree = |j: usize| -> (String, Vec<usize>) {
+        // The subtree's root first: the pair's joint as `info` shows it.
         let below = tree.below(rig, skin, j);
-        let nodes = (0..n)
-            .filter(|&k| below[k] && tree.carries[k])
+        let nodes = std::iter::once(j)
+            .chain((0..n).filter(|&k| k != j && below[k] && tree.carries[k]))
             .map(|k| skin.joints[k])
             .collect();
         (format!("{}*", name(j)), nodes)
