@@ -195,7 +195,8 @@ fn default_config(scene: Scene) -> Option<&'static str> {
         Scene::TwoFingers => Some(
             "# Written by `contact-skin demo` (kept when present): the two fingers are sibling\n\
              # joints, so no parent/child pair holds their contact; two separated working\n\
-             # regions of the one mesh do (2021 Sec. 4-5, Fig. 14).\n\
+             # regions of the one mesh do (2021 Sec. 4-5, Fig. 14). The skeleton gives the same\n\
+             # pair (`separated_from_skeleton`, on by default); named here too, it runs once.\n\
              [[self_contact.separated]]\n\
              sides = [[\"index\"], [\"middle\"]]\n",
         ),
