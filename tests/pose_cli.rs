@@ -1081,12 +1081,15 @@ fn info_reports_the_joint_pairs_and_their_direction_source() {
     assert!(
         text.contains("pair 'lips/head-jaw'")
             && text.contains("direction from the relative motion of the parts")
-            && text.contains("safeguard 72.5 deg"),
+            && text.contains("safeguard 72.5 deg")
+            && text.contains("1 joint pair(s) (parent/child), 0 pair(s) of separated regions")
+            && text.contains("separated regions from the skeleton on"),
         "{text}"
     );
     let v: Value = serde_json::from_str(&run(true)).expect("json");
     let sc = &v["self_contact"];
     assert_eq!(sc["enabled"], true);
+    assert_eq!(sc["separated_from_skeleton"], true);
     assert_eq!(sc["safeguard_angle"].as_f64(), Some(72.5));
     // Two sweeps, and up to four further ones by default (two until the twenty-fourth session).
     assert_eq!(

@@ -411,6 +411,13 @@ fn print_self_contact(s: &SelfContactInfo) {
     for reason in &s.skipped {
         println!("    skipped {reason}");
     }
+    if !s.pairs.is_empty() {
+        let separated = s.pairs.iter().filter(|p| p.separated).count();
+        println!(
+            "    {} joint pair(s) (parent/child), {separated} pair(s) of separated regions",
+            s.pairs.len() - separated
+        );
+    }
     for p in &s.pairs {
         let direction = match p.source {
             _ if p.separated => "separated regions, direction from the normals (Eq. 2)".into(),
