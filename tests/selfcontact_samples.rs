@@ -1,6 +1,8 @@
 //! Self-contact on the real characters of `../shared/gltf-samples/` (read from there, never
 //! copied): which animations fold a joint into contact, and what the pass does to them.
 
+#[path = "common/rng.rs"]
+mod rng;
 #[path = "common/scenes.rs"]
 mod scenes;
 
@@ -1039,5 +1041,132 @@ fn penetration_depths_are_no_deeper_than_the_way_out() {
         let p = prepared.pass_frame(Some(0), k, t);
         depths_against_the_way_out(&format!("{rel} frame {k}, skinned"), &p.input[0], tris, h);
         depths_against_the_way_out(&format!("{rel} frame {k}, resolved"), &p.out[0], tris, h);
+    }
+}
+
+/// `rig`'s rest pose with every joint of its skins turned about a random axis by a random
+/// angle up to `max_angle` (radians), after its rest rotation.
+fn random_pose(rig: &rig::Rig, r: &mut rng::Rng, max_angle: f64) -> rig::Pose {
+    use nalgebra::{Unit, UnitQuaternion};
+    let mut locals = rig.rest_locals();
+    let joints = rig.skins.iter().flat_map(|s| s.joints.iter().copied());
+    for j in joints {
+        let axis = Unit::new_normalize(r.unit());
+        let turn = UnitQuaternion::from_axis_angle(&axis, r.range(0.0, max_angle));
+        locals[j] = match locals[j] {
+            rig::LocalTransform::Trs(mut t) => {
+                t.rotation *= turn;
+                rig::LocalTransform::Trs(t)
+            }
+            rig::LocalTransform::Matrix(m) => {
+                rig::LocalTransform::Matrix(m * turn.to_homogeneous())
+            }
+        };
+    }
+    rig.pose_from_locals(&locals)
+}
+
+/// What the pass did to one character over several poses, every body summed.
+#[derive(Default)]
+struct PosesSummary {
+    folds: usize,
+    before: usize,
+    after: usize,
+    deepest: f64,
+    turned: usize,
+    volume: f64,
+    non_finite: usize,
+}
+
+/// Random poses of every sample through the pass as `pose` runs it (the parent/child pairs and
+/// the skeleton's separated regions), with LBS, DQS and CoR input: each joint turned about a
+/// random axis by up to 120° from its rest rotation, far past what the animations ask (limbs
+/// twisted into the body, fingers through the palm, joints folded both ways). In every pose
+/// the pass must run without an error, stay finite and keep the volume (the issue's 1e-4),
+/// and it must leave fewer penetrating vertices than the skinning gave, except on the robot
+/// (its rigid pieces interpenetrate by construction wherever two meet, in the rest pose too,
+/// and a fold that moves one piece's vertices may push a few into the next: at 90°, 6 poses,
+/// DQS, 2362 -> 2367, measured), and at most a third of them over the four characters that
+/// fold. Measured (4 poses, the same for each input, 2026-12-04; penetrating vertices
+/// summed, LBS / DQS / CoR): CesiumMan 691 -> 27 / 745 -> 23 / 845 -> 54, Fox 92 -> 27 /
+/// 103 -> 31 / 112 -> 39, the WebXR hand 167 -> 37 / 209 -> 113 / 201 -> 101, RiggedFigure
+/// 23 -> 7 / 29 -> 4 / 29 -> 8 (over the four, 3046 -> 471), the robot 1581 -> 1570 / 1578 ->
+/// 1567 / 1581 -> 1573; what is left at most 1.0 h deep (1.5 h on the hand with DQS and
+/// CoR); volume errors at most 6e-7; faces turned against both the input and the skinning 0-7
+/// per character and input, 14 and 27 on the hand with DQS and CoR (not traced). Up to 160°
+/// (12 poses each, another seed) the same holds: no error, no NaN, volume error at most
+/// 1.2e-6. The samples without a fold (RiggedSimple, SimpleSkin) run through as well.
+#[test]
+fn random_poses_of_every_sample_stay_finite_and_keep_the_volume() {
+    let (mut before, mut after) = (0, 0);
+    for rel in CHARACTERS {
+        let Some(path) = sample(rel) else {
+            continue;
+        };
+        for method in [Method::Lbs, Method::Dqs, Method::Cor] {
+            let p = with_skeleton_pairs(prepare_with(&path, FoldParams::default(), method));
+            let mut r = rng::Rng(0x5eed_0004);
+            let mut s = PosesSummary::default();
+            for _ in 0..4 {
+                let pose = random_pose(&p.rig, &mut r, 120f64.to_radians());
+                posed_through_the_pass(&p, &pose, &mut s);
+            }
+            println!(
+                "{rel} ({method:?}), 4 random poses: {} folds, penetrating vertices {} -> {} \
+                 (deepest left {:.2} h), {} faces turned, worst volume error {:.1e}",
+                s.folds, s.before, s.after, s.deepest, s.turned, s.volume
+            );
+            assert_eq!(s.non_finite, 0, "{rel} ({method:?}): NaN");
+            assert!(
+                s.volume < 1e-4,
+                "{rel} ({method:?}): volume {:.1e}",
+                s.volume
+            );
+            if rel.contains("robot") {
+                continue;
+            }
+            assert!(
+                s.after <= s.before && (s.before == 0 || s.after < s.before),
+                "{rel} ({method:?}): {} -> {} penetrating vertices",
+                s.before,
+                s.after
+            );
+            before += s.before;
+            after += s.after;
+        }
+    }
+    assert!(
+        3 * after <= before,
+        "over the characters that fold: {before} -> {after} penetrating vertices"
+    );
+}
+
+/// `pose` of `p`'s rig through its pass, added to `s`.
+fn posed_through_the_pass(p: &Prepared, pose: &rig::Pose, s: &mut PosesSummary) {
+    let frame = frames::evaluate_pose(&p.rig, &p.pre, pose, 0, 0.0);
+    let input = frame.welded(&p.pre);
+    let normals = frame.welded_normals(&p.pre);
+    let mut out = input.clone();
+    let report = p
+        .pass
+        .run_with_normals(&p.rig, pose, &mut out, &normals)
+        .expect("self-contact runs");
+    s.folds += report.folds.len();
+    for (b, w) in p.pre.welded.iter().enumerate() {
+        let h = mean_edge_length(&p.rest[b], &w.triangles);
+        let pen = |x: &[Point3<f64>]| {
+            let n = vertex_normals(x, &w.triangles, NormalWeighting::Area);
+            metrics::residual_penetration(x, &w.triangles, &n, h)
+        };
+        let (a, o) = (pen(&input[b]), pen(&out[b]));
+        s.before += a.vertices;
+        s.after += o.vertices;
+        s.deepest = s.deepest.max(o.max_depth / h);
+        s.turned += metrics::turned_faces(&w.triangles, &input[b], &out[b], &normals[b], h).turned;
+        let volume = |x: &[Point3<f64>]| contact_skin::mesh::signed_volume(x, &w.triangles);
+        s.volume = s
+            .volume
+            .max(metrics::volume_error(volume(&input[b]), volume(&out[b])));
+        s.non_finite += metrics::non_finite(&out[b]);
     }
 }
