@@ -130,19 +130,18 @@ impl PairRegions {
     /// [`crate::selfcontact::fold::FoldPre::collapsed`] compares with the rest one); of both
     /// regions' vertices for separated regions.
     pub fn box_diagonal(&self, positions: &[Point3<f64>]) -> f64 {
+        box_diagonal_of(&self.sized_vertices(), positions)
+    }
+
+    /// The vertices [`PairRegions::box_diagonal`] spans: `R`'s, or both regions' when
+    /// separated (a fold keeps the list: [`crate::selfcontact::fold::FoldPre::collapsed`]
+    /// measures it every frame).
+    pub fn sized_vertices(&self) -> Vec<u32> {
         if self.separated() {
-            let inside = |v: &usize| self.w1[*v] || self.w2[*v];
-            return crate::mesh::bbox_diagonal(
-                (0..self.w1.len())
-                    .filter(inside)
-                    .filter_map(|v| positions.get(v)),
-            );
+            let inside = |v: &u32| self.w1[*v as usize] || self.w2[*v as usize];
+            return (0..self.w1.len() as u32).filter(inside).collect();
         }
-        crate::mesh::bbox_diagonal(
-            self.shared
-                .iter()
-                .filter_map(|&v| positions.get(v as usize)),
-        )
+        self.shared.clone()
     }
 
     /// Whether the two regions share no vertex ([`super::separated_regions`]): Sec. 4-5 alone, no
@@ -643,6 +642,12 @@ pub(super) fn as_faces(triangles: &[[u32; 3]], set: &[bool]) -> (Vec<u32>, Vec<b
         }
     }
     (faces, vertices)
+}
+
+/// The diagonal of the bounding box of `vertices` at `positions` (those out of range left
+/// out).
+pub fn box_diagonal_of(vertices: &[u32], positions: &[Point3<f64>]) -> f64 {
+    crate::mesh::bbox_diagonal(vertices.iter().filter_map(|&v| positions.get(v as usize)))
 }
 
 #[cfg(test)]

@@ -254,6 +254,9 @@ pub struct FoldPre {
     pub joint_size: f64,
     /// The diagonal of the shared region's bounding box at rest ([`FoldPre::collapsed`]).
     rest_box: f64,
+    /// The vertices whose box [`FoldPre::collapsed`] measures
+    /// ([`PairRegions::sized_vertices`]).
+    sized_vertices: Vec<u32>,
     /// The mean edge length of the working regions' faces at rest (the bulge guard's unit).
     rest_edge: f64,
     /// The faces the turn guard checks: every face with a corner in `W1 ∪ W2`, those beyond
@@ -401,7 +404,8 @@ impl FoldPre {
         let closed = crate::mesh::Region::whole(triangles).is_closed();
         let topology = CreaseTopology::new(triangles, &faces, &regions.w1, &regions.w2);
         let joint_size = regions.joint_size(rest, triangles);
-        let rest_box = regions.box_diagonal(rest);
+        let sized_vertices = regions.sized_vertices();
+        let rest_box = crate::selfcontact::regions::box_diagonal_of(&sized_vertices, rest);
         let region_triangles: Vec<[u32; 3]> =
             faces.iter().map(|&f| triangles[f as usize]).collect();
         let rest_edge = crate::mesh::operators::mean_edge_length(rest, &region_triangles);
@@ -410,6 +414,7 @@ impl FoldPre {
         Ok(Self {
             joint_size,
             rest_box,
+            sized_vertices,
             rest_edge,
             regions,
             w1,
@@ -457,7 +462,7 @@ impl FoldPre {
     /// region's bounding box, posed and at rest (cheaper than the joint's size, and a guard
     /// at 1e-6 does not see the orientation's factor of at most √3).
     pub fn collapsed(&self, positions: &[Point3<f64>]) -> bool {
-        let size = self.regions.box_diagonal(positions);
+        let size = crate::selfcontact::regions::box_diagonal_of(&self.sized_vertices, positions);
         // NaN counts as collapsed (no size to resolve a fold at).
         size.is_nan() || size < crate::pass::COLLAPSED * self.rest_box
     }
