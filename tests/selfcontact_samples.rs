@@ -802,9 +802,12 @@ fn a_tracked_hand_curls_into_contact() {
     assert!(moved < 2.0, "a vertex moved by {moved:.1} edge lengths");
 }
 
-/// One pose of a prepared character through its pass: penetrating vertices before and after,
-/// the deepest left (rest edge lengths), turned faces, volume error, non-finite values.
+/// One pose of a prepared character through its pass, every body summed: folds, penetrating
+/// vertices before and after, the deepest left (rest edge lengths), turned faces, the worst
+/// volume error, non-finite values.
+#[derive(Default)]
 struct Posed {
+    folds: usize,
     before: usize,
     after: usize,
     deepest: f64,
@@ -813,30 +816,52 @@ struct Posed {
     non_finite: usize,
 }
 
+impl Posed {
+    /// Both poses' counts summed, the worst of their depths and volume errors.
+    fn add(&mut self, o: &Posed) {
+        self.folds += o.folds;
+        self.before += o.before;
+        self.after += o.after;
+        self.deepest = self.deepest.max(o.deepest);
+        self.turned += o.turned;
+        self.volume = self.volume.max(o.volume);
+        self.non_finite += o.non_finite;
+    }
+}
+
+/// `pose` of `p`'s rig through its pass.
 fn pass_pose(p: &Prepared, pose: &rig::Pose) -> Posed {
     let frame = frames::evaluate_pose(&p.rig, &p.pre, pose, 0, 0.0);
     let input = frame.welded(&p.pre);
     let normals = frame.welded_normals(&p.pre);
     let mut out = input.clone();
-    p.pass
+    let report = p
+        .pass
         .run_with_normals(&p.rig, pose, &mut out, &normals)
         .expect("self-contact runs");
-    let w = &p.pre.welded[0];
-    let h = mean_edge_length(&p.rest[0], &w.triangles);
-    let pen = |x: &[Point3<f64>]| {
-        let n = vertex_normals(x, &w.triangles, NormalWeighting::Area);
-        metrics::residual_penetration(x, &w.triangles, &n, h)
+    let mut s = Posed {
+        folds: report.folds.len(),
+        ..Posed::default()
     };
-    let left = pen(&out[0]);
-    let volume = |x: &[Point3<f64>]| contact_skin::mesh::signed_volume(x, &w.triangles);
-    Posed {
-        before: pen(&input[0]).vertices,
-        after: left.vertices,
-        deepest: left.max_depth / h,
-        turned: metrics::turned_faces(&w.triangles, &input[0], &out[0], &normals[0], h).turned,
-        volume: metrics::volume_error(volume(&input[0]), volume(&out[0])),
-        non_finite: metrics::non_finite(&out[0]),
+    for (b, w) in p.pre.welded.iter().enumerate() {
+        let h = mean_edge_length(&p.rest[b], &w.triangles);
+        let pen = |x: &[Point3<f64>]| {
+            let n = vertex_normals(x, &w.triangles, NormalWeighting::Area);
+            metrics::residual_penetration(x, &w.triangles, &n, h)
+        };
+        let left = pen(&out[b]);
+        let volume = |x: &[Point3<f64>]| contact_skin::mesh::signed_volume(x, &w.triangles);
+        s.add(&Posed {
+            folds: 0,
+            before: pen(&input[b]).vertices,
+            after: left.vertices,
+            deepest: left.max_depth / h,
+            turned: metrics::turned_faces(&w.triangles, &input[b], &out[b], &normals[b], h).turned,
+            volume: metrics::volume_error(volume(&input[b]), volume(&out[b])),
+            non_finite: metrics::non_finite(&out[b]),
+        });
     }
+    s
 }
 
 /// A fist on Khronos's WebXR hand: the four fingers curled at all three joints until their
@@ -1066,18 +1091,6 @@ fn random_pose(rig: &rig::Rig, r: &mut rng::Rng, max_angle: f64) -> rig::Pose {
     rig.pose_from_locals(&locals)
 }
 
-/// What the pass did to one character over several poses, every body summed.
-#[derive(Default)]
-struct PosesSummary {
-    folds: usize,
-    before: usize,
-    after: usize,
-    deepest: f64,
-    turned: usize,
-    volume: f64,
-    non_finite: usize,
-}
-
 /// Random poses of every sample through the pass as `pose` runs it (the parent/child pairs and
 /// the skeleton's separated regions), with LBS, DQS and CoR input: each joint turned about a
 /// random axis by up to 120° from its rest rotation, far past what the animations ask (limbs
@@ -1106,10 +1119,10 @@ fn random_poses_of_every_sample_stay_finite_and_keep_the_volume() {
         for method in [Method::Lbs, Method::Dqs, Method::Cor] {
             let p = with_skeleton_pairs(prepare_with(&path, FoldParams::default(), method));
             let mut r = rng::Rng(0x5eed_0004);
-            let mut s = PosesSummary::default();
+            let mut s = Posed::default();
             for _ in 0..4 {
                 let pose = random_pose(&p.rig, &mut r, 120f64.to_radians());
-                posed_through_the_pass(&p, &pose, &mut s);
+                s.add(&pass_pose(&p, &pose));
             }
             println!(
                 "{rel} ({method:?}), 4 random poses: {} folds, penetrating vertices {} -> {} \
@@ -1139,34 +1152,4 @@ fn random_poses_of_every_sample_stay_finite_and_keep_the_volume() {
         3 * after <= before,
         "over the characters that fold: {before} -> {after} penetrating vertices"
     );
-}
-
-/// `pose` of `p`'s rig through its pass, added to `s`.
-fn posed_through_the_pass(p: &Prepared, pose: &rig::Pose, s: &mut PosesSummary) {
-    let frame = frames::evaluate_pose(&p.rig, &p.pre, pose, 0, 0.0);
-    let input = frame.welded(&p.pre);
-    let normals = frame.welded_normals(&p.pre);
-    let mut out = input.clone();
-    let report = p
-        .pass
-        .run_with_normals(&p.rig, pose, &mut out, &normals)
-        .expect("self-contact runs");
-    s.folds += report.folds.len();
-    for (b, w) in p.pre.welded.iter().enumerate() {
-        let h = mean_edge_length(&p.rest[b], &w.triangles);
-        let pen = |x: &[Point3<f64>]| {
-            let n = vertex_normals(x, &w.triangles, NormalWeighting::Area);
-            metrics::residual_penetration(x, &w.triangles, &n, h)
-        };
-        let (a, o) = (pen(&input[b]), pen(&out[b]));
-        s.before += a.vertices;
-        s.after += o.vertices;
-        s.deepest = s.deepest.max(o.max_depth / h);
-        s.turned += metrics::turned_faces(&w.triangles, &input[b], &out[b], &normals[b], h).turned;
-        let volume = |x: &[Point3<f64>]| contact_skin::mesh::signed_volume(x, &w.triangles);
-        s.volume = s
-            .volume
-            .max(metrics::volume_error(volume(&input[b]), volume(&out[b])));
-        s.non_finite += metrics::non_finite(&out[b]);
-    }
 }
