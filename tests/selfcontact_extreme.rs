@@ -8,28 +8,12 @@ mod rng;
 #[path = "common/scenes.rs"]
 mod scenes;
 
-use contact_skin::frames;
-use contact_skin::mesh::operators::{vertex_normals, NormalWeighting};
-use contact_skin::mesh::signed_volume;
-use contact_skin::report::metrics;
 use contact_skin::rig::{LocalTransform, Rig};
 use contact_skin::selfcontact::pass::SelfContactPass;
 use contact_skin::selfcontact::{separated_from_skeleton, RegionOptions};
 use contact_skin::skinning::Method;
 use nalgebra::{Unit, UnitQuaternion, Vector3};
-use scenes::{load_with, self_pass_separated, Loaded};
-
-/// What the pass did to one pose of body 0.
-#[derive(Debug)]
-struct Posed {
-    before: usize,
-    after: usize,
-    /// Deepest vertex left, in rest edge lengths.
-    deepest: f64,
-    turned: usize,
-    volume: f64,
-    non_finite: usize,
-}
+use scenes::{load_with, self_pass_separated, Loaded, Posed};
 
 /// The pass of `l`: its parent/child pairs, and with `skeleton` the separated regions of its
 /// skeleton.
@@ -46,26 +30,13 @@ fn pass(l: &Loaded, skeleton: bool) -> SelfContactPass {
 /// `locals` skinned and through `pass`.
 fn pose(l: &Loaded, pass: &SelfContactPass, locals: &[LocalTransform]) -> Posed {
     let pose = l.rig.pose_from_locals(locals);
-    let frame = frames::evaluate_pose(&l.rig, &l.pre, &pose, 0, 0.0);
-    let input = frame.welded(&l.pre);
-    let normals = frame.welded_normals(&l.pre);
-    let mut out = input.clone();
-    pass.run_with_normals(&l.rig, &pose, &mut out, &normals)
-        .expect("the pass runs");
-    let t = &l.triangles[0];
-    let pen = |p: &[nalgebra::Point3<f64>]| {
-        let n = vertex_normals(p, t, NormalWeighting::Area);
-        metrics::residual_penetration(p, t, &n, l.h_rest)
-    };
-    let left = pen(&out[0]);
-    Posed {
-        before: pen(&input[0]).vertices,
-        after: left.vertices,
-        deepest: left.max_depth / l.h_rest,
-        turned: metrics::turned_faces(t, &input[0], &out[0], &normals[0], l.h_rest).turned,
-        volume: metrics::volume_error(signed_volume(&input[0], t), signed_volume(&out[0], t)),
-        non_finite: metrics::non_finite(&out[0]),
-    }
+    scenes::pass_pose(
+        &l.rig,
+        &l.pre,
+        pass,
+        &pose,
+        &vec![l.h_rest; l.triangles.len()],
+    )
 }
 
 /// The nodes the first animation turns, each with the axis it turns about (from the rest to

@@ -18,6 +18,7 @@ use contact_skin::selfcontact::{
 };
 use contact_skin::skinning::Method;
 use nalgebra::{Point3, Vector3};
+use scenes::Posed;
 use std::path::Path;
 
 /// The sample `rel` of `../shared/gltf-samples/`, or `None` (said on stdout: the test skips it).
@@ -802,66 +803,12 @@ fn a_tracked_hand_curls_into_contact() {
     assert!(moved < 2.0, "a vertex moved by {moved:.1} edge lengths");
 }
 
-/// One pose of a prepared character through its pass, every body summed: folds, penetrating
-/// vertices before and after, the deepest left (rest edge lengths), turned faces, the worst
-/// volume error, non-finite values.
-#[derive(Default)]
-struct Posed {
-    folds: usize,
-    before: usize,
-    after: usize,
-    deepest: f64,
-    turned: usize,
-    volume: f64,
-    non_finite: usize,
-}
-
-impl Posed {
-    /// Both poses' counts summed, the worst of their depths and volume errors.
-    fn add(&mut self, o: &Posed) {
-        self.folds += o.folds;
-        self.before += o.before;
-        self.after += o.after;
-        self.deepest = self.deepest.max(o.deepest);
-        self.turned += o.turned;
-        self.volume = self.volume.max(o.volume);
-        self.non_finite += o.non_finite;
-    }
-}
-
-/// `pose` of `p`'s rig through its pass.
+/// `pose` of `p`'s rig through its pass (depths in each body's rest edge lengths).
 fn pass_pose(p: &Prepared, pose: &rig::Pose) -> Posed {
-    let frame = frames::evaluate_pose(&p.rig, &p.pre, pose, 0, 0.0);
-    let input = frame.welded(&p.pre);
-    let normals = frame.welded_normals(&p.pre);
-    let mut out = input.clone();
-    let report = p
-        .pass
-        .run_with_normals(&p.rig, pose, &mut out, &normals)
-        .expect("self-contact runs");
-    let mut s = Posed {
-        folds: report.folds.len(),
-        ..Posed::default()
-    };
-    for (b, w) in p.pre.welded.iter().enumerate() {
-        let h = mean_edge_length(&p.rest[b], &w.triangles);
-        let pen = |x: &[Point3<f64>]| {
-            let n = vertex_normals(x, &w.triangles, NormalWeighting::Area);
-            metrics::residual_penetration(x, &w.triangles, &n, h)
-        };
-        let left = pen(&out[b]);
-        let volume = |x: &[Point3<f64>]| contact_skin::mesh::signed_volume(x, &w.triangles);
-        s.add(&Posed {
-            folds: 0,
-            before: pen(&input[b]).vertices,
-            after: left.vertices,
-            deepest: left.max_depth / h,
-            turned: metrics::turned_faces(&w.triangles, &input[b], &out[b], &normals[b], h).turned,
-            volume: metrics::volume_error(volume(&input[b]), volume(&out[b])),
-            non_finite: metrics::non_finite(&out[b]),
-        });
-    }
-    s
+    let h: Vec<f64> = (p.rest.iter().zip(&p.pre.welded))
+        .map(|(r, w)| mean_edge_length(r, &w.triangles))
+        .collect();
+    scenes::pass_pose(&p.rig, &p.pre, &p.pass, pose, &h)
 }
 
 /// A fist on Khronos's WebXR hand: the four fingers curled at all three joints until their

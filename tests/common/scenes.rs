@@ -202,3 +202,71 @@ pub fn self_pass_separated(
     )
     .expect("self-contact pass")
 }
+
+/// What the self-contact pass did to one pose, every body summed: its folds, penetrating
+/// vertices before and after, the deepest left (in the given edge lengths), faces turned
+/// against both the input and the skinning, the worst volume error, non-finite values.
+#[derive(Clone, Debug, Default)]
+pub struct Posed {
+    pub folds: usize,
+    pub before: usize,
+    pub after: usize,
+    pub deepest: f64,
+    pub turned: usize,
+    pub volume: f64,
+    pub non_finite: usize,
+}
+
+impl Posed {
+    /// Both poses' counts summed, the worst of their depths and volume errors.
+    pub fn add(&mut self, o: &Posed) {
+        self.folds += o.folds;
+        self.before += o.before;
+        self.after += o.after;
+        self.deepest = self.deepest.max(o.deepest);
+        self.turned += o.turned;
+        self.volume = self.volume.max(o.volume);
+        self.non_finite += o.non_finite;
+    }
+}
+
+/// `pose` of `rig` skinned by `pre` and through `pass`; `h[b]`: body `b`'s edge length (the
+/// metrics' unit).
+pub fn pass_pose(
+    rig: &Rig,
+    pre: &Precomputed,
+    pass: &contact_skin::selfcontact::pass::SelfContactPass,
+    pose: &rig::Pose,
+    h: &[f64],
+) -> Posed {
+    let frame = frames::evaluate_pose(rig, pre, pose, 0, 0.0);
+    let input = frame.welded(pre);
+    let normals = frame.welded_normals(pre);
+    let mut out = input.clone();
+    let report = pass
+        .run_with_normals(rig, pose, &mut out, &normals)
+        .expect("self-contact runs");
+    let mut s = Posed {
+        folds: report.folds.len(),
+        ..Posed::default()
+    };
+    for (b, w) in pre.welded.iter().enumerate() {
+        let (t, h) = (&w.triangles, h[b]);
+        let pen = |x: &[Point3<f64>]| {
+            let n = vertex_normals(x, t, NormalWeighting::Area);
+            metrics::residual_penetration(x, t, &n, h)
+        };
+        let left = pen(&out[b]);
+        let volume = |x: &[Point3<f64>]| contact_skin::mesh::signed_volume(x, t);
+        s.add(&Posed {
+            folds: 0,
+            before: pen(&input[b]).vertices,
+            after: left.vertices,
+            deepest: left.max_depth / h,
+            turned: metrics::turned_faces(t, &input[b], &out[b], &normals[b], h).turned,
+            volume: metrics::volume_error(volume(&input[b]), volume(&out[b])),
+            non_finite: metrics::non_finite(&out[b]),
+        });
+    }
+    s
+}
