@@ -6,6 +6,7 @@ use crate::mesh::Queued;
 use crate::mesh::Region;
 use crate::solve::{SolveError, SpdPattern};
 use nalgebra::Point3;
+use petgraph::unionfind::UnionFind;
 use std::collections::{BinaryHeap, HashMap};
 
 /// Smallest and largest edge parameter of an inserted point (`PIPELINE.md`): keeps the cut
@@ -283,30 +284,22 @@ impl CutMesh {
     }
 
     /// Marks free vertices whose component (through free-free couplings) has no coupling to a
-    /// Dirichlet node.
+    /// Dirichlet node: the components by union-find over the coupled edges (no per-vertex
+    /// lists: this runs for every region in every fold).
     fn find_unreached(&mut self, region: &Region) {
         let n = self.n;
-        let mut adjacency: Vec<Vec<u32>> = vec![Vec::new(); n];
+        let mut components = UnionFind::<u32>::new(n);
         for (e, edge) in region.edges.iter().enumerate() {
             if self.stiffness[n + e] != 0.0 {
-                adjacency[edge[0] as usize].push(edge[1]);
-                adjacency[edge[1] as usize].push(edge[0]);
+                components.union(edge[0], edge[1]);
             }
         }
         let mut reached = vec![false; n];
-        let mut stack: Vec<u32> = self.couplings.iter().map(|c| c.0).collect();
-        while let Some(v) = stack.pop() {
-            if std::mem::replace(&mut reached[v as usize], true) {
-                continue;
-            }
-            stack.extend(
-                adjacency[v as usize]
-                    .iter()
-                    .filter(|&&w| !reached[w as usize]),
-            );
+        for &(v, _, _) in &self.couplings {
+            reached[components.find_mut(v) as usize] = true;
         }
-        for ((u, role), r) in self.unreached.iter_mut().zip(&self.role).zip(&reached) {
-            *u = *role == Role::Free && !r;
+        for (v, (u, role)) in self.unreached.iter_mut().zip(&self.role).enumerate() {
+            *u = *role == Role::Free && !reached[components.find_mut(v as u32) as usize];
         }
     }
 

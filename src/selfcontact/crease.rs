@@ -22,6 +22,7 @@
 
 use crate::mincut::{min_cut, CutGraph, MinCutError};
 use nalgebra::{Point3, Vector3};
+use petgraph::unionfind::UnionFind;
 
 /// Weights of the crease graph.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -363,31 +364,22 @@ fn keep_attached(
     // Components of same-side edges (union-find), attached when they hold a vertex of
     // `W1 ∪ W2` outside `R`.
     let n = on_w1.len();
-    let mut parent: Vec<u32> = (0..n as u32).collect();
-    fn find(parent: &mut [u32], mut x: u32) -> u32 {
-        while parent[x as usize] != x {
-            parent[x as usize] = parent[parent[x as usize] as usize];
-            x = parent[x as usize];
-        }
-        x
-    }
+    let mut components = UnionFind::<u32>::new(n);
     for e in edges {
         let [a, b] = e.ends;
         if on_w1[a as usize] == on_w1[b as usize] {
-            let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
-            parent[ra.max(rb) as usize] = ra.min(rb);
+            components.union(a, b);
         }
     }
     let mut attached = vec![false; n];
     for v in 0..n as u32 {
         if (input.w1[v as usize] || input.w2[v as usize]) && !shared[v as usize] {
-            let r = find(&mut parent, v);
-            attached[r as usize] = true;
+            attached[components.find_mut(v) as usize] = true;
         }
     }
     let mut switched = 0;
     for v in 0..n {
-        if shared[v] && !attached[find(&mut parent, v as u32) as usize] {
+        if shared[v] && !attached[components.find_mut(v as u32) as usize] {
             on_w1[v] = !on_w1[v];
             switched += 1;
         }
