@@ -10,13 +10,13 @@
 //! that was cut away); `p' = β p'_1 + (1 - β) p'_2` with one bulge height `h_v` solved on the
 //! blended `P` and `Q` (else the indentation inside `R` is compensated twice).
 //!
-//! This file holds the fold's parameters, precomputation and per-frame sequence; its steps of
-//! its own live beside it: `crease_zones.rs` (the zones extended to the crease cut), `sigma.rs`
-//! (the sign field `σ`) and `blend.rs` (the blend, the volume solve and the guards' scales).
+//! This file holds the fold's per-frame sequence; beside it: `params.rs` (the fold's
+//! parameters), `pre.rs` (its precomputation and detection), and its steps of its own,
+//! `crease_zones.rs` (the zones extended to the crease cut), `sigma.rs` (the sign field `σ`)
+//! and `blend.rs` (the blend, the volume solve and the guards' scales).
 
 use super::bulge_guard::{bulge_scales, BulgeStep, TOLERANCE};
-use super::crease::{crease_cut, Crease, CreaseInput, CreaseParams, CreaseTopology};
-use super::regions::PairRegions;
+use super::crease::{crease_cut, Crease, CreaseInput};
 use super::turn_guard::{displacement_scales, GuardInput, TurnReference};
 use crate::contact::{
     inside_from, resolve_self_pair, Contact, ContactSide, DirectionMode, InsideTwice, PairParams,
@@ -24,19 +24,26 @@ use crate::contact::{
 };
 use crate::deform::region::{bulge_height, shape_region};
 use crate::deform::volume::RootKind;
-use crate::deform::{DeformParams, DeformStats, RegionDeformation, RegionFrame, WorkingRegion};
+use crate::deform::{DeformStats, RegionDeformation, RegionFrame};
 use crate::heat::{Boundary, EdgePoint};
-use crate::intersect::{FaceSets, Intersections, MeshIndex, PosedMesh};
+use crate::intersect::MeshIndex;
 use crate::pass::StageTimings;
 use crate::report::metrics::WindingNumber;
 use nalgebra::{Point3, Vector3};
 use std::collections::HashMap;
-use std::sync::Arc;
 use std::time::Instant;
 
 mod blend;
 mod crease_zones;
+mod params;
+mod pre;
 mod sigma;
+
+pub use params::{
+    FoldParams, DEFAULT_FOLD_TAU, DEFAULT_JOINT_EXTENT, FOLD_EXTENT_FLOOR, STEEPEST_BULGE,
+    UNBALANCED_VOLUME,
+};
+pub use pre::{Detection, FoldPre};
 
 use blend::blend_and_balance;
 use crease_zones::{zones_to_the_crease, CreaseVertices};
@@ -63,208 +70,6 @@ pub enum FoldError {
     /// A region's analysis.
     #[error(transparent)]
     Solve(#[from] crate::solve::SolveError),
-}
-
-/// Relative volume change above which a fold that no bulge balances is left unresolved (see
-/// [`FoldOutput::unbalanced`]).
-pub const UNBALANCED_VOLUME: f64 = 1e-6;
-
-/// Largest bulge, as a multiple of the band it rises from: a region's largest bulge
-/// displacement `γ h_v |Q|` above `STEEPEST_BULGE ×` its effective extent `φ_max,eff` makes
-/// the fold unbalanced (see [`FoldOutput::unbalanced`]). Such a bulge is steeper than 45° on
-/// average: it happens when a zone of a few vertices sits on its region's border, where the
-/// extent is capped to almost nothing and the whole lost volume must rise from a sliver.
-/// Measured (largest ratio per fold): below 0.1 over the committed rigs' animations. Before
-/// the amplitude faded across the crease (`deform::region`), CesiumMan with the object pass's
-/// extent floor (`κ = 3`) had four folds at 1.4, 1.6, 1.9 and 12 (bulges of 14 to 42 edge
-/// lengths in frame 5, which took that frame from 17 to 116 penetrating vertices); now none
-/// there with either floor, and the rule stays a safeguard, exercised by the bending capsule
-/// with `φ̄` = 0.1 × the joint's size (ratios 1.3 to 9, every fold refused).
-pub const STEEPEST_BULGE: f64 = 1.0;
-
-/// β of the fold's winding-number tree. Its queries only decide "inside twice" (a winding
-/// number of at least 1.5 between 1 and 2): at β = 1.5 the error stays below 0.03 (measured
-/// against the brute force near the surfaces of the bent finger and capsule; 0.39 at β = 1),
-/// and the contact step of the finger takes 9.8 ms instead of 11.2 at the metrics' β = 2.
-const INSIDE_BETA: f64 = 1.5;
-
-/// Default [`FoldParams::tau`].
-pub const DEFAULT_FOLD_TAU: f64 = -1.0;
-
-/// The extent floor factor `κ` of a fold's regions ([`DeformParams`]'s
-/// `intersection_extent_factor`): 0, the paper's fixed `φ̄` (already scaled to the joint by
-/// [`FoldParams::joint_extent`]). The object pass's floor (`κ = 3`: the extent reaches three
-/// times the distance from the zone to the intersection curve) let a fold whose intersection
-/// runs far along the body spread its deformation over it: on CesiumMan a 3-vertex zone's
-/// region got an extent of 3 scene units (the figure is 1.5 tall) and turned 277 faces.
-/// Measured against `κ = 3` (21 frames, summed): CesiumMan 88 → 54 penetrating vertices, 688 →
-/// 225 turned faces, largest displacement 9.8 → 5.3 edge lengths (before the amplitude faded
-/// across the crease: 67 → 49, 590 → 260, 2 → 0 folds refused, 9.1 → 4.1, and the committed
-/// rigs unchanged: the floor set a fold's extent in 3 of 496 region deformations, all on the
-/// CoR capsule, with the same metrics).
-pub const FOLD_EXTENT_FLOOR: f64 = 0.0;
-
-/// Default [`FoldParams::joint_extent`].
-pub const DEFAULT_JOINT_EXTENT: f64 = 1.5;
-
-/// Parameters of one fold.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FoldParams {
-    /// `k̄` of W1 (W1 moves `1 - k̄` of the way; 0.5 for one material, the paper's setting
-    /// for its skinned folds). Asymmetric values leave folds unresolved: `S` (Sec. 4.3) nears
-    /// the stiff side's own skinned surface, tilted the other way near the crease, so the soft
-    /// side's faces turn over as they conform to it, or stay inside where the turn guard
-    /// scales them back (README, "Self-contact"). Measured on the LBS capsule (worst frame of
-    /// 31, two sweeps; penetrating vertices / turned faces): `k̄ = 0.25` 40 / 0 with the turn
-    /// guard, 1 / 37 without; `k̄ = 0` 307 / 0, and 2 / 97 without; 0.5 gives 0 / 0.
-    pub stiffness_1: f64,
-    /// `τ` of Eq. 4. Default -1, the paper's setting for both its skinned folds (Fig. 13, the
-    /// bending capsule with LBS and CoR input; Fig. 15, the finger): a wider contact zone
-    /// (`ε_c` one standard deviation below the mean depth) reaches further into the crease.
-    /// Measured against `τ = 0` on the 31-frame animations (worst frame): CoR capsule 5 → 2
-    /// penetrating vertices and 30 → 18 turned faces, DQS 2 → 3 and 22 → 18, finger 1 → 0,
-    /// LBS capsule and mouth unchanged (0 and 0; temporal ratios 1.82 → 1.78, 1.03 → 1.03).
-    pub tau: f64,
-    /// The safeguard angle of Sec. 4.4 in degrees ([`PairParams::safeguard_angle`]; default
-    /// 80°, the paper's). It governs the zones of Eq. 3; the crease vertices that
-    /// `zones_to_the_crease` adds to a zone are not subject to it (they sit where the two parts
-    /// meet, their normals anywhere: up to 132° from the direction on the CoR capsule).
-    /// Measured with 75° against 80° (`pose --metrics`, two sweeps, summed penetrating
-    /// vertices): CesiumMan's walk ratio 7.05 → 4.04 over 61 frames and 2 → 0 turned faces,
-    /// but 58 → 80 penetrating vertices over 21 frames; CoR and DQS capsules 23 → 49 and
-    /// 21 → 44 over 31 frames (CoR ratio 22.47 → 22.90); LBS capsule, finger and mouth
-    /// unchanged.
-    pub safeguard_angle: f64,
-    /// Deformation parameters of both regions.
-    pub deform: DeformParams,
-    /// Crease graph weights.
-    pub crease: CreaseParams,
-    /// `φ̄` as a multiple of the joint's size ([`FoldPre::joint_size`], a second moment of its
-    /// shared region at rest); when set it replaces `deform.extent` (scene units). Default 1.5:
-    /// scale-free, and on the committed rigs the extents of the former default, 1.75 × the
-    /// diagonal of the region's axis-aligned rest box (the second moment is 1.16-1.19 of it on
-    /// the finger's and the capsule's joints, 1.11 on the mouth's), without the box's
-    /// dependence on the rig's orientation. Measured against the former default (`pose
-    /// --metrics`, two sweeps): LBS capsule ratios 1.70 and 5.42 at 31 and 76 frames (1.69,
-    /// 5.39), CoR 22.47 and 140.8 (22.45, 137.7), DQS, finger and mouth the same, CesiumMan
-    /// 53 penetrating vertices over 21 frames (49) and a walk ratio of 7.05 (7.31). With box
-    /// diagonals, 1.0 and 1.5 let the object pass's extent floor take over on the capsule's
-    /// last frames (a pop, ratio 7.9 and 4.5; the fold's floor is now 0) and 2.0 left up to 9
-    /// penetrating vertices on the finger; 1 scene unit, the first default (5 capsule radii,
-    /// 11 finger radii), spread the bulge over whole limbs and left the finger 17.
-    pub joint_extent: Option<f64>,
-    /// Scale the blended displacement back where it would turn a face over (against both its
-    /// input normal and the skinning's; [`super::turn_guard`]; needs
-    /// [`FoldInput::turn_reference`]). Not in the paper. Default on. Measured (31-frame bends,
-    /// worst frame; CesiumMan summed over 21 frames), without → with: CoR bend 15 → 0 turned
-    /// faces, 5 → 5 penetrating vertices (per frame -3 to +3), temporal ratio 22.1 → 22.4;
-    /// DQS 9 → 0, 4 → 5, 20.8 → 21.2; CesiumMan 225 → 2 turned, 54 → 53 penetrating, largest
-    /// displacement 5.3 → 4.2 h. The LBS capsule, finger, mouth and curled hand never trigger
-    /// it (outputs identical to the bit) and pay one pass over the moving faces per fold
-    /// (≤ 2 % of a finger frame, alternated runs). Where it acts it costs its rounds and more
-    /// volume solves (`GUARD_SOLVES`): CoR bend, 31 frames, two sweeps, one thread, 46 folds, the
-    /// blend-and-volume step 28 → 80 ms in all (1.1 ms per fold), 4-12 % of the whole in
-    /// alternated runs; `cargo bench --bench selfcontact -- "turn guard"` 794 → 924 ms.
-    pub turn_guard: bool,
-    /// Scale the bulge back where it would carry a face of one truncated part through a face
-    /// of the other, the volume solved again ([`super::bulge_guard`]). Not in the paper.
-    /// Default on. Measured (two sweeps, penetrating vertices summed over the frames, without
-    /// → with): CesiumMan 58 → 21 over 21 frames (0.67 → 0.39 h deep), the volume exact;
-    /// Fox's run 102 → 79 and walk 64 → 53 over 41 frames (temporal ratios 3.14 → 1.77, 2.37
-    /// → 2.13); `finger_long` 1 → 0 over 61; CoR capsule 23 → 19, DQS 21 → 17 over 31; the
-    /// LBS capsule, finger and mouth 0 either way. Cost (one thread, alternated runs): a
-    /// median CesiumMan frame 13.5 → 18.9 ms, `finger_long` 75 → 77 ms, the CoR capsule's 31
-    /// frames 1.03 → 1.3 s. The guard's checks share the turn guard's volume solves (at most
-    /// 4).
-    pub bulge_guard: bool,
-    /// Leave out of the contact zones the crease vertices that the fold would add to a zone
-    /// (inside the other part, `zones_to_the_crease`) but that do not connect to it: only
-    /// those next to one of its vertices, or to a crease vertex joining it, over the shared
-    /// region's edges, join. The isolated ones keep the profile's displacement and a harmonic
-    /// `σ` (the name is the former rule's, which left only `σ` free; kept for the
-    /// configuration files). Not in the paper; default off.
-    /// Such a vertex joins or leaves its zone from one frame to the next, pinned on `S` and
-    /// given its zone's sign at once: next to a vertex where `σ` was about 0, the amplitude,
-    /// faded by `|σ|`, came back in one frame, and the mouth's corners popped by 0.15-0.3 h
-    /// (temporal ratio 3.14 at 91 frames with the vertical direction, 2.93 with the
-    /// skeleton's). Measured with the setting (`pose --metrics`, 2026-12-03; summed
-    /// penetrating vertices, default → setting): the mouth 1.02 and 1.00 at 91 frames, its
-    /// faces inverted against the input 7 → 0, no penetrating vertex either way; the LBS
-    /// capsule, finger and `finger_long` unchanged (0; the finger's ratio at 91 frames 1.84);
-    /// the finger with DQS and CoR input 65 → 36 and 45 → 32 over 31 frames; but the
-    /// capsule with CoR 10 → 17 (up to 5 in a frame, 0.30 h deep) and DQS 9 → 12, at 76
-    /// frames 29 → 54 and 34 → 48, Fox's run 69 → 78 (a face turned), CesiumMan 21 → 21. For
-    /// a pair like the lips, not for an articulation squashed into a wall. (Until 2026-12-03
-    /// the setting left such vertices in their zone with `σ` free there: the same mouth
-    /// ratios, with 9 to 13 inverted faces, the finger with DQS 59, the capsule with CoR 21.)
-    pub free_isolated_crease: bool,
-}
-
-impl FoldParams {
-    /// The deformation parameters of a fold: `φ̄ = joint_extent × joint size` when set.
-    pub fn deform_at(&self, pre: &FoldPre) -> DeformParams {
-        let mut deform = self.deform;
-        if let Some(k) = self.joint_extent {
-            deform.extent = k * pre.joint_size;
-        }
-        deform
-    }
-}
-
-impl Default for FoldParams {
-    fn default() -> Self {
-        Self {
-            stiffness_1: 0.5,
-            tau: DEFAULT_FOLD_TAU,
-            safeguard_angle: crate::contact::zones::DEFAULT_SAFEGUARD_ANGLE,
-            deform: DeformParams {
-                intersection_extent_factor: FOLD_EXTENT_FLOOR,
-                ..DeformParams::default()
-            },
-            crease: CreaseParams::default(),
-            joint_extent: Some(DEFAULT_JOINT_EXTENT),
-            turn_guard: true,
-            bulge_guard: true,
-            free_isolated_crease: false,
-        }
-    }
-}
-
-/// What is precomputed once per joint pair.
-#[derive(Debug)]
-pub struct FoldPre {
-    /// The regions, `R` and `β`.
-    pub regions: PairRegions,
-    w1: WorkingRegion,
-    w2: WorkingRegion,
-    shared: WorkingRegion,
-    /// Faces at rest: 1 on W1's side, 2 on W2's, 0 elsewhere ([`rest_labels`]).
-    labels: Vec<u8>,
-    faces: Vec<u32>,
-    /// BVH over `faces` (at rest), restricted to each truncated part per frame.
-    parts_tree: crate::intersect::bvh::TriangleBvh,
-    closed: bool,
-    /// The body's winding-number tree at rest ([`FoldPre::body_winding`]), shared by the
-    /// body's folds.
-    winding: Arc<WindingNumber>,
-    topology: CreaseTopology,
-    /// Neighbours of each local vertex of `shared` (local ids).
-    shared_adjacency: Vec<Vec<u32>>,
-    /// The joint's size at rest ([`PairRegions::joint_size`]).
-    pub joint_size: f64,
-    /// The diagonal of the shared region's bounding box at rest ([`FoldPre::collapsed`]).
-    rest_box: f64,
-    /// The vertices whose box [`FoldPre::collapsed`] measures
-    /// ([`PairRegions::sized_vertices`]).
-    sized_vertices: Vec<u32>,
-    /// The mean edge length of the working regions' faces at rest (the bulge guard's unit).
-    rest_edge: f64,
-    /// The faces the turn guard checks: every face with a corner in `W1 ∪ W2`, those beyond
-    /// the working regions' border included, since the bulge moves the border's vertices too
-    /// (until 2026-12-03 only `W1 ∪ W2`'s faces: with the seam samples of
-    /// [`crate::contact::mapping`] a fold of Fox's hip turned face 33, next to the border, and
-    /// no guard saw it).
-    guarded_faces: Vec<u32>,
 }
 
 /// Time per step of one fold, in seconds.
@@ -351,187 +156,6 @@ pub struct FoldOutput {
     pub region_positions: [Vec<Point3<f64>>; 2],
     /// Timings.
     pub timings: FoldTimings,
-}
-
-impl FoldPre {
-    /// Precomputes a fold on a mesh at rest.
-    pub fn new(
-        rest: &[Point3<f64>],
-        triangles: &[[u32; 3]],
-        regions: PairRegions,
-    ) -> Result<Self, FoldError> {
-        let winding = Arc::new(Self::body_winding(rest, triangles));
-        Self::with_winding(rest, triangles, regions, winding)
-    }
-
-    /// The winding-number tree of the whole body at rest that a fold's inside-twice tests
-    /// use (refit per fold and frame): one per body, whatever its number of folds.
-    pub fn body_winding(rest: &[Point3<f64>], triangles: &[[u32; 3]]) -> WindingNumber {
-        WindingNumber::with_beta(rest, triangles, INSIDE_BETA)
-    }
-
-    /// A copy of the body's tree at rest, for [`resolve_detected_in`].
-    pub fn body_tree(&self) -> WindingNumber {
-        WindingNumber::clone(&self.winding)
-    }
-
-    /// [`FoldPre::new`] with the body's tree from [`FoldPre::body_winding`] on the same rest
-    /// positions and triangles, shared with the body's other folds.
-    pub fn with_winding(
-        rest: &[Point3<f64>],
-        triangles: &[[u32; 3]],
-        regions: PairRegions,
-        winding: Arc<WindingNumber>,
-    ) -> Result<Self, FoldError> {
-        let n = rest.len();
-        let w1 = WorkingRegion::new(triangles, regions.w1_faces.iter().copied(), n)?;
-        let w2 = WorkingRegion::new(triangles, regions.w2_faces.iter().copied(), n)?;
-        let shared = WorkingRegion::new(triangles, regions.shared_faces.iter().copied(), n)?;
-        let mut faces: Vec<u32> = regions
-            .w1_faces
-            .iter()
-            .chain(&regions.w2_faces)
-            .copied()
-            .collect();
-        faces.sort_unstable();
-        faces.dedup();
-        let labels = rest_labels(triangles, &regions);
-        // The indices are the regions' own (derived from `triangles`); the positions are
-        // checked before a tree is built on them.
-        crate::intersect::check_positions(rest)?;
-        let parts_tree = crate::intersect::bvh::TriangleBvh::build(rest, triangles, &faces);
-        // Only the topology is needed here (no factorization of the whole mesh).
-        let closed = crate::mesh::Region::whole(triangles).is_closed();
-        let topology = CreaseTopology::new(triangles, &faces, &regions.w1, &regions.w2);
-        let joint_size = regions.joint_size(rest, triangles);
-        let sized_vertices = regions.sized_vertices();
-        let rest_box = crate::selfcontact::regions::box_diagonal_of(&sized_vertices, rest);
-        let region_triangles: Vec<[u32; 3]> =
-            faces.iter().map(|&f| triangles[f as usize]).collect();
-        let rest_edge = crate::mesh::operators::mean_edge_length(rest, &region_triangles);
-        let shared_adjacency = shared.solver.region.adjacency();
-        let guarded_faces = faces_touching(triangles, &regions.w1, &regions.w2);
-        Ok(Self {
-            joint_size,
-            rest_box,
-            sized_vertices,
-            rest_edge,
-            regions,
-            w1,
-            w2,
-            shared,
-            labels,
-            faces,
-            parts_tree,
-            closed,
-            winding,
-            topology,
-            shared_adjacency,
-            guarded_faces,
-        })
-    }
-}
-
-/// The faces with a corner in `W1 ∪ W2` (flags per vertex), sorted.
-fn faces_touching(triangles: &[[u32; 3]], w1: &[bool], w2: &[bool]) -> Vec<u32> {
-    let inside = |v: u32| {
-        let v = v as usize;
-        w1.get(v).copied().unwrap_or(false) || w2.get(v).copied().unwrap_or(false)
-    };
-    (0..triangles.len() as u32)
-        .filter(|&f| triangles[f as usize].iter().any(|&v| inside(v)))
-        .collect()
-}
-
-/// The detection step of a fold: the vertices of the faces crossing the other part (rest
-/// partition), and how long it took.
-#[derive(Clone, Debug)]
-pub struct Detection {
-    /// Vertices of the crossed faces, sorted.
-    pub vertices: Vec<u32>,
-    /// Seconds, with the refit of the body's tree when this detection did it (in the
-    /// self-contact pass: the first fold of a body in a frame, or the first after a fold moved
-    /// the body; the others reuse that tree).
-    pub seconds: f64,
-}
-
-impl FoldPre {
-    /// Whether the shared region (both regions, when separated) is posed smaller than
-    /// [`crate::pass::COLLAPSED`] times its rest size (a joint scaled to 0): such a fold is not
-    /// resolved (nothing to resolve at that size, and all its faces overlap each other). Sizes here are the diagonals of the
-    /// region's bounding box, posed and at rest (cheaper than the joint's size, and a guard
-    /// at 1e-6 does not see the orientation's factor of at most √3).
-    pub fn collapsed(&self, positions: &[Point3<f64>]) -> bool {
-        let size = crate::selfcontact::regions::box_diagonal_of(&self.sized_vertices, positions);
-        // NaN counts as collapsed (no size to resolve a fold at).
-        size.is_nan() || size < crate::pass::COLLAPSED * self.rest_box
-    }
-
-    /// Detection with the rest partition: `None` when the fold does not intersect itself at
-    /// `positions` (then nothing else of the fold needs computing, not even normals). The
-    /// one-off form of [`FoldPre::detect_on`]: it builds a tree over the mesh at `positions`,
-    /// where the self-contact pass refits one tree per body and frame for all its joints.
-    pub fn detect(
-        &self,
-        positions: &[Point3<f64>],
-        triangles: &[[u32; 3]],
-    ) -> Result<Option<Detection>, FoldError> {
-        let clock = Instant::now();
-        let index = MeshIndex::with_faces(positions, triangles, &self.sided_faces())?;
-        let sets = self.face_sets(&index);
-        self.detect_on(&index.posed_as_built(positions)?, &sets, clock)
-    }
-
-    /// The faces of both sides of the rest partition (sorted): what the detection's tree must
-    /// hold.
-    pub fn sided_faces(&self) -> Vec<u32> {
-        (0..self.labels.len() as u32)
-            .filter(|&f| self.labels[f as usize] != 0)
-            .collect()
-    }
-
-    /// The two sides of the rest partition (W1's faces 1, W2's 2) marked in `body`'s tree, for
-    /// [`FoldPre::detect_on`]: once per rig.
-    pub fn face_sets(&self, body: &MeshIndex) -> FaceSets {
-        body.face_sets(|f| self.labels.get(f as usize).copied().unwrap_or(0))
-    }
-
-    /// Detection on the fold's body posed with its tree refit (`sets` from
-    /// [`FoldPre::face_sets`] on that body's index): the vertices of the faces crossing the
-    /// other side, `None` when none do. `started`: when the detection began, so that
-    /// [`Detection::seconds`] includes the tree's refit where the caller did it.
-    pub fn detect_on(
-        &self,
-        body: &PosedMesh,
-        sets: &FaceSets,
-        started: Instant,
-    ) -> Result<Option<Detection>, FoldError> {
-        Ok(
-            intersecting_vertices(body, sets)?.map(|vertices| Detection {
-                vertices,
-                seconds: started.elapsed().as_secs_f64(),
-            }),
-        )
-    }
-}
-
-/// Face labels from `β` at rest: 1 on W1's side, 2 on W2's, 0 outside both.
-fn rest_labels(triangles: &[[u32; 3]], r: &PairRegions) -> Vec<u8> {
-    triangles
-        .iter()
-        .map(|t| {
-            let in_w = |w: &[bool]| t.iter().all(|&v| w[v as usize]);
-            if !(in_w(&r.w1) || in_w(&r.w2)) {
-                return 0;
-            }
-            let b = t.iter().map(|&v| r.beta[v as usize]).sum::<f64>() / 3.0;
-            if b >= 0.5 {
-                1
-            } else {
-                2
-            }
-        })
-        .collect()
 }
 
 /// The fold in one frame, once [`FoldPre::detect`] found it intersecting itself: `None` when
@@ -661,7 +285,8 @@ pub struct FoldInput<'a> {
     /// Mesh triangles.
     pub triangles: &'a [[u32; 3]],
     /// `d̂_12`, W1's outward direction (not read for separated regions,
-    /// [`PairRegions::separated`], which take Eq. 2's from their contact).
+    /// [`crate::selfcontact::regions::PairRegions::separated`], which take Eq. 2's from their
+    /// contact).
     pub direction: Vector3<f64>,
     /// What the turn guard keeps faces from turning against ([`FoldParams::turn_guard`]):
     /// the frame's input and the skinning's normals; `None`: no guard.
@@ -874,28 +499,6 @@ fn with_buried(
     out.sort_unstable();
     out.dedup();
     out
-}
-
-/// Detection with the rest partition: the vertices of the faces crossing the other side, or
-/// `None` when the fold does not intersect itself.
-fn intersecting_vertices(body: &PosedMesh, sets: &FaceSets) -> Result<Option<Vec<u32>>, FoldError> {
-    let ints = Intersections::between_sets(body, sets)?;
-    if ints.is_empty() {
-        return Ok(None);
-    }
-    let triangles = body.triangles();
-    let mut vertices: Vec<u32> = ints
-        .segments
-        .iter()
-        .flat_map(|s| {
-            triangles[s.faces[0] as usize]
-                .into_iter()
-                .chain(triangles[s.faces[1] as usize])
-        })
-        .collect();
-    vertices.sort_unstable();
-    vertices.dedup();
-    Ok(Some(vertices))
 }
 
 /// Sec. 4.2-4.4 between the truncated parts, with the skeleton's (or the user's) direction.
