@@ -4,7 +4,7 @@
 
 use contact_skin::intersect::{
     face_facing, farthest_hit, farthest_hits, intersect_meshes, vertex_front_mask, EdgeHit, Facing,
-    FrontSide, IntersectError, IntersectionRegion, Intersections, MeshIndex, PosedMesh,
+    FrontSide, IntersectError, IntersectionRegion, Intersections, MeshIndex, PartsUnion, PosedMesh,
     QuadratureRule, Ray, RayHit, Side, Silhouette,
 };
 use nalgebra::{Point3, Rotation3, Vector3};
@@ -845,6 +845,48 @@ fn brute_force_self_hits((pos, tris): &Mesh, parts: &[u8], tol: f64) -> (Vec<Hit
         v.dedup();
     }
     (strict, loose)
+}
+
+/// The self-contact pass indexes its truncated parts per frame from their union's index
+/// (`PartsUnion`, built once): the same faces, edges, edges around each vertex and
+/// intersections as parts indexed alone, whether the union holds both parts (edges picked
+/// from the union's) or not (a part with a face outside it: sorted and built as alone).
+#[test]
+fn parts_indexed_within_their_union_match_parts_indexed_alone() {
+    let ((pos, tris), parts) = folded_tube(150.0, 1e-3);
+    let all: Vec<u32> = (0..tris.len() as u32).collect();
+    let first: Vec<u32> = all
+        .iter()
+        .copied()
+        .filter(|&f| parts[f as usize] == 1)
+        .collect();
+    // The parts moved as a crease cut moves them: every fifth face of part 1 goes to part 2.
+    let mut moved = parts.clone();
+    for f in first.iter().step_by(5) {
+        moved[*f as usize] = 2;
+    }
+    for (union_faces, labels) in [(&all, &parts), (&all, &moved), (&first, &moved)] {
+        let union = PartsUnion::new(&pos, &tris, union_faces).expect("union");
+        let alone = MeshIndex::self_contact_parts(&pos, &tris, labels).expect("alone");
+        let within = MeshIndex::self_contact_parts_within(Some(&union), &pos, &tris, labels)
+            .expect("within");
+        for (a, w) in alone.iter().zip(&within) {
+            assert_eq!(a.faces(), w.faces());
+            assert_eq!(a.edges(), w.edges());
+            for v in 0..pos.len() as u32 {
+                assert_eq!(a.vertex_edges(v), w.vertex_edges(v));
+            }
+        }
+        let hits = |p: &[MeshIndex; 2]| {
+            let posed = [p[0].pose(&pos).expect("p0"), p[1].pose(&pos).expect("p1")];
+            let ints = Intersections::self_contact(&posed[0], &posed[1]).expect("self contact");
+            let keys: Vec<HitKey> = ints.hits.iter().map(|h| (h.side, h.edge, h.face)).collect();
+            keys
+        };
+        let expected = hits(&alone);
+        assert!(!expected.is_empty());
+        assert_eq!(expected, hits(&within));
+    }
 }
 
 #[test]

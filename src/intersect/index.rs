@@ -47,34 +47,23 @@ impl MeshIndex {
         Self::with_faces_in(rest_positions, triangles, faces, None)
     }
 
-    /// [`MeshIndex::with_faces`], the BVH restricted from `within` when it holds every face
-    /// (see [`TriangleBvh::restricted_at`]), else built.
+    /// [`MeshIndex::with_faces`], its edges picked from `within`'s and its BVH restricted from
+    /// `within`'s when `within` holds every face (see [`TriangleBvh::restricted_at`]), else
+    /// sorted and built.
     fn with_faces_in(
         rest_positions: &[Point3<f64>],
         triangles: &[[u32; 3]],
         faces: &[u32],
-        within: Option<&TriangleBvh>,
+        within: Option<&PartsUnion>,
     ) -> Result<Self, IntersectError> {
         check_positions(rest_positions)?;
         let vertex_count = rest_positions.len();
         let (kept, index_degenerate) = valid_faces(triangles, faces, vertex_count)?;
-        // Sorted as `u64` keys (`a << 32 | b`, the same order as `[a, b]`): twice as fast as
-        // comparing pairs, and this runs per part and per fold in the self-contact pass.
-        let mut keys: Vec<u64> = kept
-            .iter()
-            .flat_map(|&f| {
-                let t = triangles[f as usize];
-                (0..3).map(move |k| {
-                    let [a, b] = canonical(t[k], t[(k + 1) % 3]);
-                    (u64::from(a) << 32) | u64::from(b)
-                })
-            })
-            .collect();
-        keys.sort_unstable();
-        keys.dedup();
-        let edges: Vec<[u32; 2]> = keys.iter().map(|&k| [(k >> 32) as u32, k as u32]).collect();
+        let edges = within
+            .and_then(|w| w.edges_of(&kept))
+            .unwrap_or_else(|| sorted_edges(triangles, &kept));
         let bvh = within
-            .and_then(|w| w.restricted_at(&kept, rest_positions, triangles))
+            .and_then(|w| w.tree.restricted_at(&kept, rest_positions, triangles))
             .unwrap_or_else(|| TriangleBvh::build(rest_positions, triangles, &kept));
         let (vertex_edge_offsets, vertex_edge_ids) = vertex_edges(vertex_count, &edges);
         let mut used = vec![false; vertex_count];
@@ -106,12 +95,13 @@ impl MeshIndex {
         Self::self_contact_parts_within(None, rest_positions, triangles, parts)
     }
 
-    /// [`MeshIndex::self_contact_parts`] at `positions`, each part's BVH restricted from
-    /// `within` (a tree over a superset of both parts, e.g. the faces of both working regions
-    /// of a joint, built once) instead of built: the crease cut moves the parts' faces in every
-    /// frame, their union does not change. Queries give the same results either way.
+    /// [`MeshIndex::self_contact_parts`] at `positions`, each part's edges picked and its BVH
+    /// restricted from `within` (a superset of both parts, e.g. the faces of both working
+    /// regions of a joint, indexed once) instead of sorted and built: the crease cut moves the
+    /// parts' faces in every frame, their union does not change. Queries give the same results
+    /// either way.
     pub fn self_contact_parts_within(
-        within: Option<&TriangleBvh>,
+        within: Option<&PartsUnion>,
         positions: &[Point3<f64>],
         triangles: &[[u32; 3]],
         parts: &[u8],
@@ -325,6 +315,85 @@ impl<'a> PosedMesh<'a> {
         let [a, b, c] = self.corners(f);
         0.5 * (b - a).cross(&(c - a)).norm()
     }
+}
+
+/// The union of a self-contact's two parts (2021 Sec. 6: both working regions of a joint),
+/// indexed once at rest: a BVH over its faces, its edges (canonical, sorted) and the ids of
+/// each face's edges, from which [`MeshIndex::self_contact_parts_within`] indexes each
+/// frame's parts without building a tree or sorting their edges.
+#[derive(Clone, Debug)]
+pub struct PartsUnion {
+    tree: TriangleBvh,
+    edges: Vec<[u32; 2]>,
+    /// Per mesh face, the ids into `edges` of its three edges (`u32::MAX` for a face outside
+    /// the union).
+    face_edges: Vec<[u32; 3]>,
+}
+
+impl PartsUnion {
+    /// Indexes the union `faces` of `triangles` at `rest_positions` (faces with a repeated
+    /// vertex index left out, as [`MeshIndex::with_faces`] does).
+    pub fn new(
+        rest_positions: &[Point3<f64>],
+        triangles: &[[u32; 3]],
+        faces: &[u32],
+    ) -> Result<Self, IntersectError> {
+        check_positions(rest_positions)?;
+        let (kept, _) = valid_faces(triangles, faces, rest_positions.len())?;
+        let edges = sorted_edges(triangles, &kept);
+        let mut face_edges = vec![[u32::MAX; 3]; triangles.len()];
+        for &f in &kept {
+            let t = triangles[f as usize];
+            for (k, id) in face_edges[f as usize].iter_mut().enumerate() {
+                let edge = canonical(t[k], t[(k + 1) % 3]);
+                // Every edge of a kept face is in `edges`.
+                *id = edges.binary_search(&edge).map_or(u32::MAX, |i| i as u32);
+            }
+        }
+        Ok(Self {
+            tree: TriangleBvh::build(rest_positions, triangles, &kept),
+            edges,
+            face_edges,
+        })
+    }
+
+    /// The sorted edges of `faces` (valid faces of the mesh), picked from the union's: the
+    /// same as [`sorted_edges`] gives; `None` when a face is not in the union.
+    fn edges_of(&self, faces: &[u32]) -> Option<Vec<[u32; 2]>> {
+        let mut used = vec![false; self.edges.len()];
+        for &f in faces {
+            for id in *self.face_edges.get(f as usize)? {
+                *used.get_mut(id as usize)? = true;
+            }
+        }
+        Some(
+            self.edges
+                .iter()
+                .zip(&used)
+                .filter(|(_, &u)| u)
+                .map(|(e, _)| *e)
+                .collect(),
+        )
+    }
+}
+
+/// The edges of `faces` (valid faces of `triangles`), canonical, sorted and unique.
+fn sorted_edges(triangles: &[[u32; 3]], faces: &[u32]) -> Vec<[u32; 2]> {
+    // Sorted as `u64` keys (`a << 32 | b`, the same order as `[a, b]`): twice as fast as
+    // comparing pairs.
+    let mut keys: Vec<u64> = faces
+        .iter()
+        .flat_map(|&f| {
+            let t = triangles[f as usize];
+            (0..3).map(move |k| {
+                let [a, b] = canonical(t[k], t[(k + 1) % 3]);
+                (u64::from(a) << 32) | u64::from(b)
+            })
+        })
+        .collect();
+    keys.sort_unstable();
+    keys.dedup();
+    keys.iter().map(|&k| [(k >> 32) as u32, k as u32]).collect()
 }
 
 /// The faces to keep (sorted, unique, without repeated vertex index) and the number left out;

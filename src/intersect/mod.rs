@@ -51,8 +51,7 @@ pub mod silhouette;
 
 pub use bvh::{Aabb, FaceSets, TriangleBvh};
 pub use curves::Curve;
-pub(crate) use index::check_positions;
-pub use index::{MeshIndex, PosedMesh};
+pub use index::{MeshIndex, PartsUnion, PosedMesh};
 pub use mesh_mesh::{
     intersect_meshes, intersect_parts, EdgeHit, IntersectionSegment, IntersectionStats,
     Intersections, Side,

@@ -353,12 +353,8 @@ fn cut_the_crease(
         &params.crease,
     )?;
     let labels = cut_labels(g.triangles, &pre.faces, &crease.on_w1);
-    let truncated = MeshIndex::self_contact_parts_within(
-        Some(&pre.parts_tree),
-        g.positions,
-        g.triangles,
-        &labels,
-    )?;
+    let truncated =
+        MeshIndex::self_contact_parts_within(Some(&pre.parts), g.positions, g.triangles, &labels)?;
     Ok((crease, truncated))
 }
 
@@ -369,12 +365,8 @@ fn separated_parts(
     positions: &[Point3<f64>],
     triangles: &[[u32; 3]],
 ) -> Result<(Crease, [MeshIndex; 2]), FoldError> {
-    let parts = MeshIndex::self_contact_parts_within(
-        Some(&pre.parts_tree),
-        positions,
-        triangles,
-        &pre.labels,
-    )?;
+    let parts =
+        MeshIndex::self_contact_parts_within(Some(&pre.parts), positions, triangles, &pre.labels)?;
     let crease = Crease {
         on_w1: pre.regions.w1.clone(),
         value: 0.0,

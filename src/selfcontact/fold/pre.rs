@@ -4,7 +4,7 @@
 
 use super::FoldError;
 use crate::deform::WorkingRegion;
-use crate::intersect::{FaceSets, Intersections, MeshIndex, PosedMesh};
+use crate::intersect::{FaceSets, Intersections, MeshIndex, PartsUnion, PosedMesh};
 use crate::report::metrics::WindingNumber;
 use crate::selfcontact::crease::CreaseTopology;
 use crate::selfcontact::regions::PairRegions;
@@ -29,8 +29,8 @@ pub struct FoldPre {
     /// Faces at rest: 1 on W1's side, 2 on W2's, 0 elsewhere ([`rest_labels`]).
     pub(super) labels: Vec<u8>,
     pub(super) faces: Vec<u32>,
-    /// BVH over `faces` (at rest), restricted to each truncated part per frame.
-    pub(super) parts_tree: crate::intersect::bvh::TriangleBvh,
+    /// `faces` indexed at rest, from which each frame's truncated parts are indexed.
+    pub(super) parts: PartsUnion,
     pub(super) closed: bool,
     /// The body's winding-number tree at rest ([`FoldPre::body_winding`]), shared by the
     /// body's folds.
@@ -98,10 +98,8 @@ impl FoldPre {
         faces.sort_unstable();
         faces.dedup();
         let labels = rest_labels(triangles, &regions);
-        // The indices are the regions' own (derived from `triangles`); the positions are
-        // checked before a tree is built on them.
-        crate::intersect::check_positions(rest)?;
-        let parts_tree = crate::intersect::bvh::TriangleBvh::build(rest, triangles, &faces);
+        // Checks the positions (finite) before any tree is built on them.
+        let parts = PartsUnion::new(rest, triangles, &faces)?;
         // Only the topology is needed here (no factorization of the whole mesh).
         let closed = crate::mesh::Region::whole(triangles).is_closed();
         let topology = CreaseTopology::new(triangles, &faces, &regions.w1, &regions.w2);
@@ -124,7 +122,7 @@ impl FoldPre {
             shared,
             labels,
             faces,
-            parts_tree,
+            parts,
             closed,
             winding,
             topology,
