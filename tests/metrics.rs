@@ -962,7 +962,8 @@ fn refitted_winding_tree_matches_a_rebuilt_one() {
 /// `refit` at the same positions, over successive moves of parts of the surface (as the folds of
 /// one body move one joint's regions after another), from a tree as built (whose inner moments
 /// come from their faces, not from merges: its first call refits it whole) and from one refit
-/// at rest; and it refuses a NaN corner, keeping its fit.
+/// at rest; and it refuses a NaN corner, keeping its fit (the moves after it found against
+/// that fit).
 #[test]
 fn partial_refit_gives_the_bits_of_a_full_refit() {
     use contact_skin::report::metrics::WindingNumber;
@@ -1022,6 +1023,17 @@ fn partial_refit_gives_the_bits_of_a_full_refit() {
     let mut full = WindingNumber::new(&s.0, &s.1);
     assert!(full.refit(&band, &s.1));
     assert_eq!(partial.query(&q).to_bits(), full.query(&q).to_bits());
+    // After the refusal the moves are still found against the last fit (the band's): back to
+    // the cap alone, the same bits as a full refit there.
+    assert!(partial.refit_changed(&cap, &s.1));
+    assert!(full.refit(&cap, &s.1));
+    for q in &queries {
+        assert_eq!(
+            partial.query(q).to_bits(),
+            full.query(q).to_bits(),
+            "at {q}"
+        );
+    }
 }
 
 // ---------------------------------------------------------------------------------------------

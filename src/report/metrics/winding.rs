@@ -266,6 +266,9 @@ pub struct WindingNumber {
     /// Whether every inner node's moments are its children's merged (after any refit; a
     /// built tree computes them from its faces): [`WindingNumber::refit_changed`]'s condition.
     merged: bool,
+    /// The positions of the last refit (empty before one): which vertices moved since, for
+    /// [`WindingNumber::refit_changed`].
+    fitted_at: Vec<Point3<f64>>,
 }
 
 impl WindingNumber {
@@ -298,6 +301,7 @@ impl WindingNumber {
             beta,
             skipped,
             merged: false,
+            fitted_at: Vec::new(),
         }
     }
 
@@ -317,40 +321,57 @@ impl WindingNumber {
             self.refit_node(i, &mut fitted);
         }
         self.merged = true;
+        self.fitted_at.clear();
+        self.fitted_at.extend_from_slice(positions);
         true
     }
 
     /// [`WindingNumber::refit`] that recomputes only the leaves holding a face with a corner
-    /// that moved (bit for bit) and their ancestors: a node's box and moments depend on its
-    /// faces' corners only, so the result is [`WindingNumber::refit`]'s to the bit once the
-    /// inner nodes are merges of their children (after any refit; on a tree as built, whose
-    /// inner moments come from their faces, this is a whole refit). For a mesh that a few
-    /// regions at a time move (the folds of one body, one after the other).
+    /// that moved (bit for bit) since the last refit and their ancestors: a node's box and
+    /// moments depend on its faces' corners only, so the result is [`WindingNumber::refit`]'s
+    /// to the bit once the inner nodes are merges of their children (after any refit; on a
+    /// tree as built, whose inner moments come from their faces, this is a whole refit). For a
+    /// mesh that a few regions at a time move (the folds of one body, one after the other).
+    /// The moved vertices are found against the last refit's positions, then only their faces'
+    /// corners are read (`triangles` must be the tree's own; a non-finite moved corner leaves
+    /// the tree unchanged and returns `false`, as [`WindingNumber::refit`] does).
     pub fn refit_changed(&mut self, positions: &[Point3<f64>], triangles: &[[u32; 3]]) -> bool {
-        if !self.merged {
+        if !self.merged || self.fitted_at.len() != positions.len() {
             return self.refit(positions, triangles);
         }
-        let Some(tris) = self.corners_of(positions, triangles) else {
-            return false;
-        };
-        let same = |a: &[Point3<f64>; 3], b: &[Point3<f64>; 3]| {
-            a.iter()
-                .flat_map(|p| p.iter())
-                .zip(b.iter().flat_map(|p| p.iter()))
-                .all(|(x, y)| x.to_bits() == y.to_bits())
-        };
-        let moved: Vec<bool> = tris
+        let bits = |p: &Point3<f64>| p.coords.map(f64::to_bits);
+        let moved_vertex: Vec<bool> = positions
             .iter()
-            .zip(&self.bvh.tris)
-            .map(|(a, b)| !same(a, b))
+            .zip(&self.fitted_at)
+            .map(|(p, q)| bits(p) != bits(q))
             .collect();
-        self.bvh.tris = tris;
+        // Per slot whose face has a moved corner, its corners now.
+        let mut moved: Vec<(usize, [Point3<f64>; 3])> = Vec::new();
+        for (slot, &f) in self.bvh.faces.iter().enumerate() {
+            let Some(t) = triangles.get(f as usize) else {
+                return false;
+            };
+            if t.iter()
+                .any(|&v| moved_vertex.get(v as usize) != Some(&false))
+            {
+                let Some(c) = corners(positions, t) else {
+                    return false;
+                };
+                moved.push((slot, c));
+            }
+        }
+        let mut stale_slot = vec![false; self.bvh.tris.len()];
+        for (slot, c) in moved {
+            self.bvh.tris[slot] = c;
+            stale_slot[slot] = true;
+        }
+        self.fitted_at.copy_from_slice(positions);
         // Per node: recomputed in this call (children come after their parent).
         let mut fitted = vec![false; self.bvh.nodes.len()];
         for i in (0..self.bvh.nodes.len()).rev() {
             let node = self.bvh.nodes[i];
             let stale = if node.is_leaf() {
-                moved[node.slots()].iter().any(|&m| m)
+                stale_slot[node.slots()].iter().any(|&m| m)
             } else {
                 fitted[i + 1] || fitted[node.right as usize]
             };
