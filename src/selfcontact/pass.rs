@@ -599,12 +599,11 @@ impl SelfContactPass {
             .is_some()
             .then_some(frame_input.as_deref())
             .flatten();
-        let (pos, winding) = bodies.with_winding(fold.body, || fold.pre.body_tree());
-        let normals = vertex_normals(pos, tris, NormalWeighting::Area);
+        let (pos, normals, winding) = bodies.for_fold(fold.body, tris, || fold.pre.body_tree());
         let normal = |v: usize| skinned.as_ref().map_or_else(Vector3::zeros, |s| s.at(v));
         let input = FoldInput {
             positions: pos,
-            normals: &normals,
+            normals,
             triangles: tris,
             direction,
             turn_reference: first.map(|first| TurnReference {
@@ -749,7 +748,7 @@ fn add_shared_region(reach: &mut Vec<bool>, regions: &PairRegions) {
 /// Every body's positions in one frame, updated fold after fold, and each body's detection
 /// tree refit at them: one refit per body shared by the detections of its folds until a fold
 /// moves it. The positions change only through [`PosedBodies::replace`], which drops the
-/// body's tree, so a tree is never queried at positions it was not refit at.
+/// body's tree and normals, so neither is read at positions it was not made at.
 ///
 /// Also each body's winding-number tree for the folds' inside-twice tests, copied from the
 /// rest tree at the body's first fold of the frame and refit by every fold where it moved
@@ -758,28 +757,37 @@ struct PosedBodies<'p> {
     positions: &'p mut [Vec<Point3<f64>>],
     trees: Vec<Option<TriangleBvh>>,
     windings: Vec<Option<WindingNumber>>,
+    /// Per body, the area-weighted vertex normals of its positions (dropped with them).
+    normals: Vec<Option<Vec<Vector3<f64>>>>,
 }
 
 impl<'p> PosedBodies<'p> {
     fn new(positions: &'p mut [Vec<Point3<f64>>]) -> Self {
         let trees = vec![None; positions.len()];
         let windings = vec![None; positions.len()];
+        let normals = vec![None; positions.len()];
         Self {
             positions,
             trees,
             windings,
+            normals,
         }
     }
 
-    /// Positions of `body` and its winding-number tree (`rest_tree` the first time in the
-    /// frame).
-    fn with_winding(
+    /// Positions of `body`, their vertex normals (computed once per positions: most folds
+    /// detected in a frame leave the body as they found it) and its winding-number tree
+    /// (`rest_tree` the first time in the frame).
+    fn for_fold(
         &mut self,
         body: usize,
+        triangles: &[[u32; 3]],
         rest_tree: impl FnOnce() -> WindingNumber,
-    ) -> (&[Point3<f64>], &mut WindingNumber) {
+    ) -> (&[Point3<f64>], &[Vector3<f64>], &mut WindingNumber) {
         let tree = self.windings[body].get_or_insert_with(rest_tree);
-        (&self.positions[body], tree)
+        let positions = &self.positions[body];
+        let normals = self.normals[body]
+            .get_or_insert_with(|| vertex_normals(positions, triangles, NormalWeighting::Area));
+        (positions, normals, tree)
     }
 
     /// Positions of `body` and its winding-number tree refit to them: the folds' (β = 1.5, see
@@ -833,6 +841,7 @@ impl<'p> PosedBodies<'p> {
         own.clear();
         own.extend_from_slice(positions);
         self.trees[body] = None;
+        self.normals[body] = None;
     }
 }
 
@@ -957,5 +966,27 @@ mod tests {
         bodies.replace(0, &at(5.0));
         assert_eq!(bodies.positions(0)[0].x, 5.0);
         assert_eq!(low_x(&mut bodies), 5.0);
+    }
+
+    /// The normals a fold reads follow the positions: kept while they do not change, made
+    /// again after [`PosedBodies::replace`] (stale ones would face the old surface).
+    #[test]
+    fn replaced_positions_drop_the_normals() {
+        let tris = vec![[0u32, 1, 2]];
+        let flat = vec![
+            Point3::new(0.0, 0.0, 0.0),
+            Point3::new(1.0, 0.0, 0.0),
+            Point3::new(0.0, 1.0, 0.0),
+        ];
+        // The same triangle turned to face +x.
+        let turned: Vec<Point3<f64>> = flat.iter().map(|p| Point3::new(0.0, p.x, p.y)).collect();
+        let mut positions = vec![flat];
+        let mut bodies = PosedBodies::new(&mut positions);
+        let rest = || WindingNumber::new(&[], &[]);
+        let normal = |b: &mut PosedBodies| b.for_fold(0, &tris, rest).1[0];
+        assert_eq!(normal(&mut bodies), Vector3::z());
+        assert_eq!(normal(&mut bodies), Vector3::z());
+        bodies.replace(0, &turned);
+        assert_eq!(normal(&mut bodies), Vector3::x());
     }
 }
