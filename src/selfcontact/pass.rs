@@ -493,9 +493,8 @@ impl SelfContactPass {
                     return Vec::new();
                 }
                 let t = &self.triangles[b];
-                let (p, tree) = bodies.refit_winding(b, t);
-                let normals = vertex_normals(p, t, NormalWeighting::Area);
-                penetrating_among(&tree, p, t, &normals, self.rest_edge[b], &reach[b])
+                let (p, normals, tree) = bodies.refit_winding(b, t);
+                penetrating_among(&tree, p, t, normals, self.rest_edge[b], &reach[b])
             })
             .collect()
     }
@@ -790,14 +789,15 @@ impl<'p> PosedBodies<'p> {
         (positions, normals, tree)
     }
 
-    /// Positions of `body` and its winding-number tree refit to them: the folds' (β = 1.5, see
-    /// [`PosedBodies::with_winding`]), else (no fold resolved on the body, or a non-finite
-    /// position that the refit refuses) one built on them with the metric's β.
+    /// Positions of `body`, their normals (the folds', [`PosedBodies::for_fold`]) and its
+    /// winding-number tree refit to them: the folds' (β = 1.5, see [`PosedBodies::for_fold`]),
+    /// else (no fold resolved on the body, or a non-finite position that the refit refuses)
+    /// one built on them with the metric's β.
     fn refit_winding(
         &mut self,
         body: usize,
         triangles: &[[u32; 3]],
-    ) -> (&[Point3<f64>], Cow<'_, WindingNumber>) {
+    ) -> (&[Point3<f64>], &[Vector3<f64>], Cow<'_, WindingNumber>) {
         let positions = &self.positions[body];
         let slot = &mut self.windings[body];
         let refit = slot
@@ -807,7 +807,9 @@ impl<'p> PosedBodies<'p> {
             Some(tree) if refit => Cow::Borrowed(&*tree),
             _ => Cow::Owned(WindingNumber::new(positions, triangles)),
         };
-        (positions, tree)
+        let normals = self.normals[body]
+            .get_or_insert_with(|| vertex_normals(positions, triangles, NormalWeighting::Area));
+        (positions, normals, tree)
     }
 
     /// Every body's positions.
