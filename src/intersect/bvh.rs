@@ -163,11 +163,15 @@ impl TriangleBvh {
         positions: &[Point3<f64>],
         triangles: &[[u32; 3]],
     ) -> Option<Self> {
-        let live: Vec<bool> = self
-            .faces
-            .iter()
-            .map(|f| faces.binary_search(f).is_ok())
-            .collect();
+        // Membership by a mark per face id (not a binary search per slot: the self-contact
+        // pass restricts two parts per fold from a union of thousands of faces).
+        let size = self.faces.iter().max().map_or(0, |&f| f as usize + 1);
+        let mut wanted = vec![false; size];
+        for &f in faces {
+            // A face beyond the tree's largest id is not in the tree.
+            *wanted.get_mut(f as usize)? = true;
+        }
+        let live: Vec<bool> = self.faces.iter().map(|&f| wanted[f as usize]).collect();
         if live.iter().filter(|&&l| l).count() != faces.len() {
             return None;
         }
@@ -882,6 +886,8 @@ mod tests {
         // A face outside the tree cannot be restricted to.
         let small = TriangleBvh::build(&a.0, &a.1, &half);
         assert!(small.restricted_at(&all, &a.0, &a.1).is_none());
+        // Nor an id beyond every face (no mark array that large is made).
+        assert!(small.restricted_at(&[u32::MAX], &a.0, &a.1).is_none());
     }
 
     #[test]
