@@ -784,8 +784,7 @@ impl<'p> PosedBodies<'p> {
     ) -> (&[Point3<f64>], &[Vector3<f64>], &mut WindingNumber) {
         let tree = self.windings[body].get_or_insert_with(rest_tree);
         let positions = &self.positions[body];
-        let normals = self.normals[body]
-            .get_or_insert_with(|| vertex_normals(positions, triangles, NormalWeighting::Area));
+        let normals = normals_of(&mut self.normals[body], positions, triangles);
         (positions, normals, tree)
     }
 
@@ -807,8 +806,7 @@ impl<'p> PosedBodies<'p> {
             Some(tree) if refit => Cow::Borrowed(&*tree),
             _ => Cow::Owned(WindingNumber::new(positions, triangles)),
         };
-        let normals = self.normals[body]
-            .get_or_insert_with(|| vertex_normals(positions, triangles, NormalWeighting::Area));
+        let normals = normals_of(&mut self.normals[body], positions, triangles);
         (positions, normals, tree)
     }
 
@@ -845,6 +843,16 @@ impl<'p> PosedBodies<'p> {
         self.trees[body] = None;
         self.normals[body] = None;
     }
+}
+
+/// A body's area-weighted vertex normals at `positions`, made in `slot` unless already there
+/// (the slot is emptied whenever the positions change, [`PosedBodies::replace`]).
+fn normals_of<'s>(
+    slot: &'s mut Option<Vec<Vector3<f64>>>,
+    positions: &[Point3<f64>],
+    triangles: &[[u32; 3]],
+) -> &'s [Vector3<f64>] {
+    slot.get_or_insert_with(|| vertex_normals(positions, triangles, NormalWeighting::Area))
 }
 
 /// The folds with their detection: one index per body with a fold, over the faces of all its
