@@ -17,6 +17,27 @@ const BINS: usize = 12;
 /// microseconds on a busy machine, a pair test a fraction of one).
 const PARALLEL_PAIRS: usize = 2048;
 
+/// The lower of `a` and `b`, `a` when `b` is NaN (as `f64::min`, in one instruction where
+/// `f64::min`, which also passes over a NaN `a`, takes several).
+#[inline]
+fn lower(a: f64, b: f64) -> f64 {
+    if b < a {
+        b
+    } else {
+        a
+    }
+}
+
+/// The higher of `a` and `b`, `a` when `b` is NaN.
+#[inline]
+fn upper(a: f64, b: f64) -> f64 {
+    if b > a {
+        b
+    } else {
+        a
+    }
+}
+
 /// An axis-aligned box, `min <= max` componentwise when not empty.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Aabb {
@@ -35,17 +56,23 @@ impl Aabb {
 
     /// Exact bounding box of a triangle.
     pub fn of_triangle(p: [&Point3<f64>; 3]) -> Aabb {
-        Aabb {
-            min: p[0].inf(&p[1].inf(p[2])),
-            max: p[0].sup(&p[1].sup(p[2])),
-        }
+        Aabb::EMPTY.grown(p[0]).grown(p[1]).grown(p[2])
     }
 
     /// Smallest box containing both.
     pub fn union(&self, other: &Aabb) -> Aabb {
         Aabb {
-            min: self.min.inf(&other.min),
-            max: self.max.sup(&other.max),
+            min: Point3::from(std::array::from_fn(|i| lower(self.min[i], other.min[i]))),
+            max: Point3::from(std::array::from_fn(|i| upper(self.max[i], other.max[i]))),
+        }
+    }
+
+    /// The box grown to hold `p`.
+    #[inline]
+    fn grown(&self, p: &Point3<f64>) -> Aabb {
+        Aabb {
+            min: Point3::from(std::array::from_fn(|i| lower(self.min[i], p[i]))),
+            max: Point3::from(std::array::from_fn(|i| upper(self.max[i], p[i]))),
         }
     }
 
@@ -122,8 +149,13 @@ pub struct TriangleBvh {
     nodes: Vec<Node>,
     /// Face id of each leaf slot.
     faces: Vec<u32>,
-    /// Box of each leaf slot's face (current positions; [`Aabb::EMPTY`] for a masked slot).
+    /// Box of each leaf slot's face (current positions; [`Aabb::EMPTY`] for a masked slot)
+    /// when `faces_fitted`, else those of an earlier refit.
     face_boxes: Vec<Aabb>,
+    /// Whether `face_boxes` are at the positions of the node boxes: not after
+    /// [`TriangleBvh::refit_nodes_at`], whose queries then take a face's box from its
+    /// positions ([`TriangleBvh::pairs_between_sets`]) or its leaf's box (the others).
+    faces_fitted: bool,
     /// Per leaf slot: the face belongs to the tree (`None`: every slot does). See
     /// [`TriangleBvh::restricted_at`].
     live: Option<Vec<bool>>,
@@ -147,6 +179,7 @@ impl TriangleBvh {
             nodes,
             faces: order.iter().map(|&i| faces[i as usize]).collect(),
             face_boxes: order.iter().map(|&i| boxes[i as usize]).collect(),
+            faces_fitted: true,
             live: None,
         }
     }
@@ -203,20 +236,92 @@ impl TriangleBvh {
 
     /// Every live slot's box from `face_box(face id)`, then the nodes'.
     fn refit_boxes(&mut self, face_box: impl Fn(u32) -> Aabb + Sync) {
+        // In chunks of slots, each a plain loop (per slot through rayon, the closure was a
+        // call per face: a third of a frame without contact).
+        const CHUNK: usize = 1024;
         let live = self.live.as_deref();
         self.faces
-            .par_iter()
-            .zip(self.face_boxes.par_iter_mut())
+            .par_chunks(CHUNK)
+            .zip(self.face_boxes.par_chunks_mut(CHUNK))
             .enumerate()
-            .with_min_len(1024)
-            .for_each(|(slot, (&f, b))| {
-                *b = if live.is_none_or(|l| l[slot]) {
-                    face_box(f)
-                } else {
-                    Aabb::EMPTY
+            .for_each(|(chunk, (faces, boxes))| {
+                let first = chunk * CHUNK;
+                for (i, (&f, b)) in faces.iter().zip(boxes).enumerate() {
+                    *b = if live.is_none_or(|l| l[first + i]) {
+                        face_box(f)
+                    } else {
+                        Aabb::EMPTY
+                    }
                 }
             });
+        self.faces_fitted = true;
         self.refit_nodes();
+    }
+
+    /// Each live slot's corners, per leaf node, for [`TriangleBvh::refit_nodes_at`]: each
+    /// vertex once per leaf (a leaf of four faces has about six corners, not twelve).
+    pub(crate) fn leaf_corners(&self, triangles: &[[u32; 3]]) -> LeafCorners {
+        let mut offsets = Vec::with_capacity(self.nodes.len() + 1);
+        let mut vertices = Vec::new();
+        offsets.push(0);
+        for n in &self.nodes {
+            let slots = n.first as usize..(n.first + n.count) as usize;
+            let mut leaf: Vec<u32> = slots
+                .filter(|&s| n.count > 0 && self.is_live(s))
+                .flat_map(|s| triangles[self.faces[s] as usize])
+                .collect();
+            leaf.sort_unstable();
+            leaf.dedup();
+            vertices.extend(leaf);
+            offsets.push(vertices.len() as u32);
+        }
+        LeafCorners { offsets, vertices }
+    }
+
+    /// Like [`TriangleBvh::refit`] for the node boxes only, each leaf's from its distinct
+    /// corners (`corners` from [`TriangleBvh::leaf_corners`] of this tree, the positions
+    /// finite): every face's box is not written, about half the work of a refit, for a tree
+    /// whose only query is [`TriangleBvh::pairs_between_sets`] (the self-contact pass's
+    /// detection, which a frame without contact is made of). A leaf's box is the corners' box
+    /// (which also holds the corners of faces collapsed to a point, whose own boxes are
+    /// empty), empty when it is a point, so it holds its faces' boxes and the pairs found are
+    /// the same.
+    pub(crate) fn refit_nodes_at(&mut self, positions: &[Point3<f64>], corners: &LeafCorners) {
+        debug_assert_eq!(corners.offsets.len(), self.nodes.len() + 1);
+        for i in (0..self.nodes.len()).rev() {
+            let n = self.nodes[i];
+            self.nodes[i].aabb = if n.count > 0 {
+                let range = corners.offsets[i] as usize..corners.offsets[i + 1] as usize;
+                let b = corners.vertices[range]
+                    .iter()
+                    .fold(Aabb::EMPTY, |b, &v| b.grown(&positions[v as usize]));
+                if b.min == b.max {
+                    Aabb::EMPTY
+                } else {
+                    b
+                }
+            } else {
+                let first = n.first as usize;
+                self.nodes[first].aabb.union(&self.nodes[first + 1].aabb)
+            };
+        }
+        self.faces_fitted = false;
+    }
+
+    /// Whether leaf slot `slot` holds a face of the tree.
+    fn is_live(&self, slot: usize) -> bool {
+        self.live.as_ref().is_none_or(|l| l[slot])
+    }
+
+    /// The box of leaf slot `slot` of leaf `leaf` as stored: its face's when the faces are
+    /// fitted, else the leaf's (which holds it).
+    #[inline]
+    fn stored_box(&self, slot: usize, leaf: &Node) -> Aabb {
+        if self.faces_fitted {
+            self.face_boxes[slot]
+        } else {
+            leaf.aabb
+        }
     }
 
     /// Node boxes from the face boxes, bottom up.
@@ -232,6 +337,16 @@ impl TriangleBvh {
                 self.nodes[first].aabb.union(&self.nodes[first + 1].aabb)
             };
         }
+    }
+
+    /// Whether `other` has this tree's nodes (their faces, not their boxes), leaf slots and
+    /// live slots: a refit of either gives the other's boxes.
+    pub(crate) fn same_shape(&self, other: &TriangleBvh) -> bool {
+        self.faces == other.faces
+            && self.live == other.live
+            && self.nodes.len() == other.nodes.len()
+            && (self.nodes.iter().zip(&other.nodes))
+                .all(|(a, b)| (a.first, a.count) == (b.first, b.count))
     }
 
     /// Number of faces in the tree.
@@ -300,24 +415,46 @@ impl TriangleBvh {
     /// cover faces of neither set, which only costs box tests), with one refit for both sets;
     /// one tree over a body serves every joint's two sides (2021 Sec. 6 detection).
     /// `None` when `sets` was not made by [`TriangleBvh::face_sets`] on a tree of this shape.
-    pub fn pairs_between_sets<R, F>(&self, sets: &FaceSets, visit: F) -> Option<Vec<R>>
+    /// The faces' boxes are made from `positions` (those of the last refit; `triangles` the
+    /// mesh's), so that the tree may be refit at its nodes only
+    /// ([`TriangleBvh::refit_nodes_at`]).
+    pub fn pairs_between_sets<R, F>(
+        &self,
+        sets: &FaceSets,
+        positions: &[Point3<f64>],
+        triangles: &[[u32; 3]],
+        visit: F,
+    ) -> Option<Vec<R>>
     where
         R: Send,
         F: Fn(u32, u32) -> Option<R> + Sync,
     {
         let fits =
             sets.node_bits.len() == self.nodes.len() && sets.slot_bits.len() == self.faces.len();
-        fits.then(|| visit_sorted(&self.pairs_where(self, sets), visit))
+        let slot_box =
+            |slot: usize, _: &Node| face_box(positions, &triangles[self.faces[slot] as usize]);
+        fits.then(|| visit_sorted(&self.pairs_where(self, sets, slot_box, slot_box), visit))
     }
 
     fn pairs_in_tree_order(&self, other: &TriangleBvh) -> Vec<(u32, u32)> {
-        self.pairs_where(other, &EveryFace)
+        let (mine, theirs) = (
+            |slot: usize, leaf: &Node| self.stored_box(slot, leaf),
+            |slot: usize, leaf: &Node| other.stored_box(slot, leaf),
+        );
+        self.pairs_where(other, &EveryFace, mine, theirs)
     }
 
     /// The face pairs `(face of self, face of other)` whose leaf slots `filter` admits and whose
     /// boxes overlap, in tree order: node pairs with overlapping boxes split depth first (internal
     /// nodes split, both at once when both are internal), pruned by `filter`'s node test.
-    fn pairs_where(&self, other: &TriangleBvh, filter: &impl PairFilter) -> Vec<(u32, u32)> {
+    /// The leaf slots' boxes are `box_a(slot, leaf)` in this tree and `box_b` in `other`.
+    fn pairs_where(
+        &self,
+        other: &TriangleBvh,
+        filter: &impl PairFilter,
+        box_a: impl Fn(usize, &Node) -> Aabb,
+        box_b: impl Fn(usize, &Node) -> Aabb,
+    ) -> Vec<(u32, u32)> {
         let mut pairs = Vec::new();
         let mut stack = Vec::with_capacity(64);
         let push = |stack: &mut Vec<(u32, u32)>, a: u32, b: u32| {
@@ -335,7 +472,16 @@ impl TriangleBvh {
         while let Some((a, b)) = stack.pop() {
             let (na, nb) = (&self.nodes[a as usize], &other.nodes[b as usize]);
             match (na.count > 0, nb.count > 0) {
-                (true, true) => self.leaf_pairs(other, na, nb, filter, &mut pairs),
+                (true, true) => {
+                    let leaves = LeafPair {
+                        other,
+                        na,
+                        nb,
+                        box_a: &box_a,
+                        box_b: &box_b,
+                    };
+                    self.leaf_pairs(leaves, filter, &mut pairs)
+                }
                 (false, true) => {
                     push(&mut stack, na.first, b);
                     push(&mut stack, na.first + 1, b);
@@ -356,23 +502,38 @@ impl TriangleBvh {
         pairs
     }
 
-    fn leaf_pairs(
+    fn leaf_pairs<A, B>(
         &self,
-        other: &TriangleBvh,
-        na: &Node,
-        nb: &Node,
+        leaves: LeafPair<'_, A, B>,
         filter: &impl PairFilter,
         out: &mut Vec<(u32, u32)>,
-    ) {
+    ) where
+        A: Fn(usize, &Node) -> Aabb,
+        B: Fn(usize, &Node) -> Aabb,
+    {
+        let LeafPair {
+            other,
+            na,
+            nb,
+            box_a,
+            box_b,
+        } = leaves;
         let ra = na.first as usize..(na.first + na.count) as usize;
         let rb = nb.first as usize..(nb.first + nb.count) as usize;
+        // The second leaf's boxes once (at most MAX_LEAF), not once per face of the first.
+        let mut boxes_b = [Aabb::EMPTY; MAX_LEAF];
+        for (b, j) in boxes_b.iter_mut().zip(rb.clone()) {
+            if filter.second_slot(j) {
+                *b = box_b(j, nb);
+            }
+        }
         for i in ra.filter(|&i| filter.first_slot(i)) {
-            let bi = &self.face_boxes[i];
+            let bi = box_a(i, na);
             if !bi.overlaps(&nb.aabb) {
                 continue;
             }
-            for j in rb.clone().filter(|&j| filter.second_slot(j)) {
-                if bi.overlaps(&other.face_boxes[j]) {
+            for (j, bj) in rb.clone().zip(&boxes_b) {
+                if filter.second_slot(j) && bi.overlaps(bj) {
                     out.push((self.faces[i], other.faces[j]));
                 }
             }
@@ -413,7 +574,7 @@ impl TriangleBvh {
             let n = &self.nodes[i as usize];
             if n.count > 0 {
                 for slot in n.first as usize..(n.first + n.count) as usize {
-                    let range = reach(&self.face_boxes[slot]).filter(|r| r[1] >= best);
+                    let range = reach(&self.stored_box(slot, n)).filter(|r| r[1] >= best);
                     if let Some(t) = range.and_then(|r| test(self.faces[slot], r)) {
                         best = best.max(t);
                     }
@@ -431,6 +592,24 @@ impl TriangleBvh {
             stack.extend(kids.iter().filter_map(|&(c, t)| t.map(|t| (c, t))));
         }
     }
+}
+
+/// Per leaf node of a [`TriangleBvh`], the distinct corners of its live faces (compressed rows:
+/// node `i`'s are `vertices[offsets[i]..offsets[i + 1]]`, none for an internal node).
+#[derive(Clone, Debug)]
+pub struct LeafCorners {
+    offsets: Vec<u32>,
+    vertices: Vec<u32>,
+}
+
+/// Two leaves, of this tree and of `other`, and how each gets a slot's box
+/// ([`TriangleBvh::pairs_where`]).
+struct LeafPair<'t, A, B> {
+    other: &'t TriangleBvh,
+    na: &'t Node,
+    nb: &'t Node,
+    box_a: &'t A,
+    box_b: &'t B,
 }
 
 /// Set A's bit in [`FaceSets`].
@@ -670,8 +849,16 @@ mod tests {
         assert!(collapsed.root_box().is_none());
         let mut refit = TriangleBvh::build(&pos, &tris, &faces);
         assert!(!refit.candidate_pairs(&refit).is_empty());
+        let mut nodes_only = refit.clone();
         refit.refit(&point, &tris);
         assert!(refit.candidate_pairs(&refit).is_empty());
+        // Refit at the nodes only, every leaf's corners are one point: empty too.
+        nodes_only.refit_nodes_at(&point, &nodes_only.leaf_corners(&tris));
+        assert!(nodes_only.root_box().is_none());
+        assert!(nodes_only.candidate_pairs(&nodes_only).is_empty());
+        let sets = nodes_only.face_sets(|f| 1 + (f % 2) as u8);
+        let pairs = nodes_only.pairs_between_sets(&sets, &point, &tris, |x, y| Some((x, y)));
+        assert_eq!(pairs, Some(Vec::new()));
     }
 
     /// A wavy grid (open surface) of `2 n²` triangles.
@@ -763,8 +950,10 @@ mod tests {
             // Interleaved in strips across both grids.
             &|f: u32| [1, 2, 0][(f / 3 % 3) as usize],
         ];
-        let empty = TriangleBvh::build(&two_grids(0.0).0, &two_grids(0.0).1, &[]);
-        let none = empty.pairs_between_sets(&empty.face_sets(|_| 1), |x, y| Some((x, y)));
+        let grids = two_grids(0.0);
+        let empty = TriangleBvh::build(&grids.0, &grids.1, &[]);
+        let sets_of_none = empty.face_sets(|_| 1);
+        let none = empty.pairs_between_sets(&sets_of_none, &grids.0, &grids.1, |x, y| Some((x, y)));
         assert_eq!(none, Some(Vec::new()));
         for label in labelings {
             let mesh = two_grids(0.0);
@@ -774,8 +963,18 @@ mod tests {
             let (a, b) = (set(1), set(2));
             let mut tree = TriangleBvh::build(&mesh.0, &mesh.1, &all);
             let sets = tree.face_sets(label);
+            let corners = tree.leaf_corners(&mesh.1);
+            let pairs = |t: &TriangleBvh, sets: &FaceSets, p: &[Point3<f64>]| {
+                t.pairs_between_sets(sets, p, &mesh.1, |x, y| Some((x, y)))
+            };
             for positions in [mesh.0.clone(), two_grids(1.5).0] {
+                // Refit at the nodes only, the pairs are the same; the other queries take
+                // each face's box as its leaf's, so they find more pairs, those among them.
+                let mut nodes_only = tree.clone();
+                nodes_only.refit_nodes_at(&positions, &corners);
                 tree.refit(&positions, &mesh.1);
+                let roots = |t: &TriangleBvh| t.root_box().expect("faces");
+                assert_eq!(roots(&nodes_only), roots(&tree));
                 let expected: Vec<(u32, u32)> = a
                     .iter()
                     .flat_map(|&fa| b.iter().map(move |&fb| (fa, fb)))
@@ -785,15 +984,18 @@ mod tests {
                     })
                     .collect();
                 assert!(!expected.is_empty());
-                let got = tree.pairs_between_sets(&sets, |x, y| Some((x, y)));
+                let got = pairs(&tree, &sets, &positions);
                 assert_eq!(got.as_ref(), Some(&expected));
+                assert_eq!(pairs(&nodes_only, &sets, &positions), got);
                 let other = TriangleBvh::build(&positions, &mesh.1, &a);
-                assert!(other
-                    .pairs_between_sets(&sets, |x, y| Some((x, y)))
-                    .is_none());
+                assert!(pairs(&other, &sets, &positions).is_none());
                 let ta = TriangleBvh::build(&positions, &mesh.1, &a);
                 let tb = TriangleBvh::build(&positions, &mesh.1, &b);
                 assert_eq!(ta.candidate_pairs(&tb), expected);
+                let every = tree.candidate_pairs(&tree);
+                let coarse = nodes_only.candidate_pairs(&nodes_only);
+                assert!(coarse.len() > every.len());
+                assert!(every.iter().all(|p| coarse.binary_search(p).is_ok()));
                 // A restricted tree: its masked faces are in neither set.
                 let half: Vec<u32> = all.iter().copied().filter(|f| f / 4 % 2 == 0).collect();
                 let restricted = tree
@@ -806,7 +1008,7 @@ mod tests {
                     .collect();
                 assert!(!kept.is_empty() && kept.len() < expected.len());
                 let restricted_sets = restricted.face_sets(label);
-                let got = restricted.pairs_between_sets(&restricted_sets, |x, y| Some((x, y)));
+                let got = pairs(&restricted, &restricted_sets, &positions);
                 assert_eq!(got, Some(kept));
             }
         }

@@ -1,7 +1,7 @@
 //! Pose-independent data of one surface (its faces, edges, a BVH built on a reference pose) and
 //! its per-frame counterpart.
 
-use super::bvh::{FaceSets, TriangleBvh};
+use super::bvh::{FaceSets, LeafCorners, TriangleBvh};
 use super::IntersectError;
 use nalgebra::Point3;
 use std::borrow::Cow;
@@ -193,6 +193,30 @@ impl MeshIndex {
         let mut bvh = self.bvh.clone();
         bvh.refit(positions, &self.triangles);
         Ok(bvh)
+    }
+
+    /// The corners of each leaf of the index's tree, for [`MeshIndex::refit_nodes_in`].
+    pub(crate) fn leaf_corners(&self) -> LeafCorners {
+        self.bvh.leaf_corners(&self.triangles)
+    }
+
+    /// [`MeshIndex::refit_tree`] into `tree`, a tree an earlier [`MeshIndex::refit_tree`] of
+    /// this index returned, at its nodes only ([`TriangleBvh::refit_nodes_at`], `corners`
+    /// from [`MeshIndex::leaf_corners`]): for the pair queries between face sets alone
+    /// ([`crate::intersect::Intersections::between_sets`]), which find the same pairs as on a
+    /// full refit. Neither the copy of the tree nor its faces' boxes: a frame of the
+    /// self-contact pass without contact is about this refit and those queries. `tree` is
+    /// left as it was on an error.
+    pub(crate) fn refit_nodes_in(
+        &self,
+        positions: &[Point3<f64>],
+        tree: &mut TriangleBvh,
+        corners: &LeafCorners,
+    ) -> Result<(), IntersectError> {
+        self.check_frame(positions)?;
+        debug_assert!(tree.same_shape(&self.bvh), "a tree of another index");
+        tree.refit_nodes_at(positions, corners);
+        Ok(())
     }
 
     /// The surface at the positions the index was built (or restricted) at, its tree as it

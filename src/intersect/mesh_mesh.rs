@@ -133,9 +133,12 @@ impl Intersections {
         let counters = Counters::default();
         let pairs = mesh
             .bvh()
-            .pairs_between_sets(sets, |fa, fb| {
-                pair_segment(mesh, fa, mesh, fb, true, &counters)
-            })
+            .pairs_between_sets(
+                sets,
+                mesh.positions(),
+                mesh.index().triangles(),
+                |fa, fb| pair_segment(mesh, fa, mesh, fb, true, &counters),
+            )
             .ok_or(IntersectError::FaceSetsMismatch)?;
         let degenerate = mesh.index().index_degenerate_faces();
         Ok(assemble(pairs, degenerate, &counters))

@@ -49,7 +49,7 @@ pub mod rays;
 pub mod regions;
 pub mod silhouette;
 
-pub use bvh::{Aabb, FaceSets, TriangleBvh};
+pub use bvh::{Aabb, FaceSets, LeafCorners, TriangleBvh};
 pub use curves::Curve;
 pub use index::{MeshIndex, PartsUnion, PosedMesh};
 pub use mesh_mesh::{

@@ -11,7 +11,7 @@ use super::fold::{
 use super::regions::{derive_pairs_reporting, PairRegions, RegionOptions};
 use super::turn_guard::TurnReference;
 use super::SelfContactError;
-use crate::intersect::{FaceSets, IntersectError, MeshIndex, PosedMesh, TriangleBvh};
+use crate::intersect::{FaceSets, IntersectError, LeafCorners, MeshIndex, PosedMesh, TriangleBvh};
 use crate::mesh::operators::{mean_edge_length, vertex_normals, NormalWeighting};
 use crate::mesh::WeldedMesh;
 use crate::report::metrics::{penetrating_among, WindingNumber};
@@ -19,7 +19,7 @@ use crate::rig::{Pose, Rig};
 use crate::skinning::{cofactor, unit_or_zero};
 use nalgebra::{Matrix3, Point3, Vector3};
 use std::borrow::Cow;
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 /// One joint pair of one body, precomputed.
@@ -28,8 +28,9 @@ struct Fold {
     body: usize,
     pre: FoldPre,
     /// The index its detection runs on, shared by every fold of the body: over the faces of
-    /// all their sides, its tree built at rest and refit per frame ([`PosedBodies`]).
-    detection: Arc<MeshIndex>,
+    /// all their sides, its tree built at rest and refit per frame ([`PosedBodies`]), with
+    /// its leaves' corners.
+    detection: Arc<(MeshIndex, LeafCorners)>,
     /// The fold's two sides marked in that tree.
     sets: FaceSets,
     axes: BoneAxes,
@@ -94,6 +95,11 @@ pub struct SelfContactPass {
     max_passes: usize,
     /// Joint pairs left out when deriving, one reason each ([`derive_pairs_reporting`]).
     skipped: Vec<String>,
+    /// Detection trees of finished frames, one set per body, each refit in place by a later
+    /// frame ([`MeshIndex::refit_tree_in`]) instead of copied from the index: as many sets as
+    /// frames ran at once. Only their allocations are reused: every box is rewritten before a
+    /// query reads it, so a frame's output does not depend on which set it got.
+    spare_trees: Mutex<Vec<Vec<Option<TriangleBvh>>>>,
 }
 
 /// Default number of sweeps over the folds per frame (see [`SelfContactPass::with_passes`]).
@@ -214,6 +220,7 @@ impl SelfContactPass {
             passes: DEFAULT_FOLD_PASSES,
             max_passes: DEFAULT_MAX_FOLD_PASSES,
             skipped,
+            spare_trees: Mutex::default(),
         })
     }
 
@@ -394,11 +401,32 @@ impl SelfContactPass {
         if let Some(normals) = normals {
             check_normals(positions, normals)?;
         }
+        let trees = self
+            .spare_trees
+            .lock()
+            .ok()
+            .and_then(|mut spare| spare.pop());
+        let mut bodies = PosedBodies::new(positions, trees);
+        let out = self.sweeps(rig, pose, normals, &mut bodies);
+        if let Ok(mut spare) = self.spare_trees.lock() {
+            spare.push(bodies.into_trees());
+        }
+        out
+    }
+
+    /// The frame's sweeps over the folds ([`SelfContactPass::with_passes`],
+    /// [`SelfContactPass::with_max_passes`]).
+    fn sweeps(
+        &self,
+        rig: &Rig,
+        pose: &Pose,
+        normals: Option<&[Vec<Vector3<f64>>]>,
+        bodies: &mut PosedBodies,
+    ) -> Result<SelfPassOutput, SelfPassError> {
         let mut out = SelfPassOutput::default();
         // The positions before any fold, copied when the first fold is detected: the turn
         // guard's reference.
         let mut frame_input = None;
-        let mut bodies = PosedBodies::new(positions);
         let mut further = FurtherSweeps::new(self.triangles.len());
         // Per fold, whether it runs in this sweep: all in the first sweeps, in further ones
         // those whose working regions hold a penetrating vertex. A fold that still touches
@@ -413,7 +441,7 @@ impl SelfContactPass {
                     rig,
                     pose,
                     normals,
-                    bodies: &mut bodies,
+                    bodies,
                     left_penetrating: &further.left,
                 };
                 let moved_now = self.sweep_fold(fold, frame, &mut frame_input, &mut out)?;
@@ -429,7 +457,7 @@ impl SelfContactPass {
                 break;
             }
             if sweep >= self.passes {
-                match further.next(self, &mut bodies) {
+                match further.next(self, bodies) {
                     Some(folds) => active = folds,
                     None => break,
                 }
@@ -567,7 +595,8 @@ impl SelfContactPass {
         }
         // Detection first: a joint that does not fold into itself costs its detection only.
         let clock = Instant::now();
-        let posed = bodies.posed(fold.body, &fold.detection);
+        let (index, corners) = &*fold.detection;
+        let posed = bodies.posed(fold.body, index, corners);
         let posed = posed.map_err(|e| fail(e.into()))?;
         let detection = fold.pre.detect_on(&posed, &fold.sets, clock);
         let Some(detection) = detection.map_err(fail)? else {
@@ -746,8 +775,9 @@ fn add_shared_region(reach: &mut Vec<bool>, regions: &PairRegions) {
 
 /// Every body's positions in one frame, updated fold after fold, and each body's detection
 /// tree refit at them: one refit per body shared by the detections of its folds until a fold
-/// moves it. The positions change only through [`PosedBodies::replace`], which drops the
-/// body's tree and normals, so neither is read at positions it was not made at.
+/// moves it. The positions change only through [`PosedBodies::replace`], which marks the
+/// body's tree for a refit and drops its normals, so neither is read at positions it was not
+/// made at.
 ///
 /// Also each body's winding-number tree for the folds' inside-twice tests, copied from the
 /// rest tree at the body's first fold of the frame and refit by every fold where it moved
@@ -755,19 +785,27 @@ fn add_shared_region(reach: &mut Vec<bool>, regions: &PairRegions) {
 struct PosedBodies<'p> {
     positions: &'p mut [Vec<Point3<f64>>],
     trees: Vec<Option<TriangleBvh>>,
+    /// Per body, whether its tree was refit at its positions.
+    fitted: Vec<bool>,
     windings: Vec<Option<WindingNumber>>,
     /// Per body, the area-weighted vertex normals of its positions (dropped with them).
     normals: Vec<Option<Vec<Vector3<f64>>>>,
 }
 
 impl<'p> PosedBodies<'p> {
-    fn new(positions: &'p mut [Vec<Point3<f64>>]) -> Self {
-        let trees = vec![None; positions.len()];
+    /// `trees`: a frame's detection trees to refit in place (one per body, `None` where there
+    /// is none yet), or `None` (each tree copied from its index at its first detection).
+    fn new(positions: &'p mut [Vec<Point3<f64>>], trees: Option<Vec<Option<TriangleBvh>>>) -> Self {
+        let trees = trees
+            .filter(|t| t.len() == positions.len())
+            .unwrap_or_else(|| vec![None; positions.len()]);
+        let fitted = vec![false; positions.len()];
         let windings = vec![None; positions.len()];
         let normals = vec![None; positions.len()];
         Self {
             positions,
             trees,
+            fitted,
             windings,
             normals,
         }
@@ -820,27 +858,40 @@ impl<'p> PosedBodies<'p> {
         &self.positions[body]
     }
 
-    /// `body` posed for detection on `index` (its index: one per body), refitting the tree
-    /// unless it was refit at these positions.
+    /// `body` posed for detection on `index` (its index: one per body; `corners` its tree's
+    /// leaves'), refitting the tree unless it was refit at these positions: at its nodes only
+    /// ([`MeshIndex::refit_nodes_in`]), for the detection's queries alone.
     fn posed<'s>(
         &'s mut self,
         body: usize,
         index: &'s MeshIndex,
+        corners: &LeafCorners,
     ) -> Result<PosedMesh<'s>, IntersectError> {
         let positions = &self.positions[body];
-        let tree = match &mut self.trees[body] {
-            Some(tree) => tree,
-            slot => slot.insert(index.refit_tree(positions)?),
+        // A tree whose refit fails (a non-finite position) is dropped.
+        let tree = match self.trees[body].take() {
+            Some(tree) if self.fitted[body] => tree,
+            Some(mut tree) => {
+                index.refit_nodes_in(positions, &mut tree, corners)?;
+                tree
+            }
+            None => index.refit_tree(positions)?,
         };
-        Ok(index.posed_with(positions, tree))
+        self.fitted[body] = true;
+        Ok(index.posed_with(positions, self.trees[body].insert(tree)))
     }
 
-    /// New positions for `body`; its tree is dropped.
+    /// The detection trees, to refit in place in a later frame.
+    fn into_trees(self) -> Vec<Option<TriangleBvh>> {
+        self.trees
+    }
+
+    /// New positions for `body`; its tree is to refit, its normals are dropped.
     fn replace(&mut self, body: usize, positions: &[Point3<f64>]) {
         let own = &mut self.positions[body];
         own.clear();
         own.extend_from_slice(positions);
-        self.trees[body] = None;
+        self.fitted[body] = false;
         self.normals[body] = None;
     }
 }
@@ -866,7 +917,7 @@ fn with_detection(
     for (body, pre, ..) in &built {
         sided[*body].extend(pre.sided_faces());
     }
-    let mut indices: Vec<Option<Arc<MeshIndex>>> = vec![None; welded.len()];
+    let mut indices: Vec<Option<Arc<(MeshIndex, LeafCorners)>>> = vec![None; welded.len()];
     let mut folds = Vec::with_capacity(built.len());
     for (body, pre, axes, direction) in built {
         let detection = match &mut indices[body] {
@@ -877,12 +928,13 @@ fn with_detection(
                 faces.dedup();
                 let index = MeshIndex::with_faces(&rest[body], &welded[body].triangles, faces)
                     .map_err(|source| SelfPassError::Detection { body, source })?;
-                Arc::clone(slot.insert(Arc::new(index)))
+                let corners = index.leaf_corners();
+                Arc::clone(slot.insert(Arc::new((index, corners))))
             }
         };
         folds.push(Fold {
             body,
-            sets: pre.face_sets(&detection),
+            sets: pre.face_sets(&detection.0),
             detection,
             pre,
             axes,
@@ -954,9 +1006,10 @@ mod tests {
     use super::*;
 
     /// A body's detection tree follows its positions: after [`PosedBodies::replace`] the next
-    /// detection refits it (a stale tree would miss the pairs the move created).
+    /// detection refits it (a stale tree would miss the pairs the move created), and so does
+    /// the first detection of a frame handed an earlier frame's trees.
     #[test]
-    fn replaced_positions_drop_the_tree() {
+    fn replaced_positions_refit_the_tree() {
         let tris = vec![[0u32, 1, 2]];
         let at = |x: f64| {
             vec![
@@ -966,16 +1019,26 @@ mod tests {
             ]
         };
         let index = MeshIndex::new(&at(0.0), &tris).expect("index");
+        let corners = index.leaf_corners();
         let mut positions = vec![at(0.0)];
-        let mut bodies = PosedBodies::new(&mut positions);
+        let mut bodies = PosedBodies::new(&mut positions, None);
         let low_x = |b: &mut PosedBodies| {
-            let posed = b.posed(0, &index).expect("finite positions");
+            let posed = b.posed(0, &index, &corners).expect("finite positions");
             posed.bvh().root_box().expect("a face").min.x
         };
         assert_eq!(low_x(&mut bodies), 0.0);
         bodies.replace(0, &at(5.0));
         assert_eq!(bodies.positions(0)[0].x, 5.0);
         assert_eq!(low_x(&mut bodies), 5.0);
+        let trees = bodies.into_trees();
+        let mut next_frame = vec![at(-3.0)];
+        let mut bodies = PosedBodies::new(&mut next_frame, Some(trees));
+        assert_eq!(low_x(&mut bodies), -3.0);
+        // A non-finite position is refused, and the tree is refit once it is finite again.
+        bodies.replace(0, &at(f64::NAN));
+        assert!(bodies.posed(0, &index, &corners).is_err());
+        bodies.replace(0, &at(2.0));
+        assert_eq!(low_x(&mut bodies), 2.0);
     }
 
     /// The normals a fold reads follow the positions: kept while they do not change, made
@@ -991,7 +1054,7 @@ mod tests {
         // The same triangle turned to face +x.
         let turned: Vec<Point3<f64>> = flat.iter().map(|p| Point3::new(0.0, p.x, p.y)).collect();
         let mut positions = vec![flat];
-        let mut bodies = PosedBodies::new(&mut positions);
+        let mut bodies = PosedBodies::new(&mut positions, None);
         let rest = || WindingNumber::new(&[], &[]);
         let normal = |b: &mut PosedBodies| b.for_fold(0, &tris, rest).1[0];
         assert_eq!(normal(&mut bodies), Vector3::z());
