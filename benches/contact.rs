@@ -11,7 +11,7 @@
 //! table of per-stage medians over every frame with contact of each animation.
 
 use contact_skin::frames::{self, Precomputed};
-use contact_skin::pass::{ContactPass, ObjectParams, PassOutput, RestBody, StageTimings};
+use contact_skin::pass::{ContactPass, PassOutput, StageTimings};
 use contact_skin::report::timings::{median, median_stages};
 use contact_skin::rig::Rig;
 use contact_skin::skinning::Method;
@@ -31,16 +31,7 @@ struct Scene {
 fn scene(name: &str, passes: usize) -> Scene {
     let rig = common::committed_rig(name);
     let pre = Precomputed::new(&rig, Method::Lbs);
-    let rest = frames::welded_positions(&rig, &pre, None, 0.0);
-    let bodies: Vec<RestBody> = rest
-        .iter()
-        .zip(&pre.welded)
-        .map(|(p, w)| (p.as_slice(), w.triangles.as_slice()))
-        .collect();
-    let params = vec![ObjectParams::default(); bodies.len()];
-    let pass = ContactPass::new(&bodies, params, vec![])
-        .expect("pass")
-        .with_passes(passes);
+    let pass = common::object_pass(&rig, &pre).with_passes(passes);
     let times = frames::sample_times(&rig, Some(0), Some(61)).expect("frames");
     Scene {
         rig,

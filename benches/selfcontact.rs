@@ -216,6 +216,23 @@ fn bench(c: &mut Criterion) {
                 })
             },
         );
+        // The whole frame of `pose --self-contact` (as `cli::contact::run_frame`): skinning
+        // with its normals, the contact pass between bodies, the self-contact pass.
+        let object = common::object_pass(&rig, &pre);
+        g.bench_function(format!("{name}/frame without contact/whole frame"), |b| {
+            b.iter(|| {
+                pool.install(|| {
+                    let frame = frames::evaluate(&rig, &pre, Some(0), 2, t);
+                    let welded = frame.welded(&pre);
+                    let out = object.run_at(&welded, t).expect("contact pass");
+                    let mut pos = out.positions;
+                    let pose = rig.pose_at(Some(0), t);
+                    let normals = frame.welded_normals(&pre);
+                    let done = skeleton.run_with_normals(&rig, &pose, &mut pos, &normals);
+                    black_box(done.expect("pass"))
+                })
+            })
+        });
     }
     g.finish();
     batch(c);

@@ -23,6 +23,18 @@ use std::time::Instant;
 /// A body at rest: welded positions and triangles.
 pub type RestBody<'a> = (&'a [Point3<f64>], &'a [[u32; 3]]);
 
+/// A rig's bodies as [`ContactPass::new`] takes them: each body's welded rest positions
+/// (`rest`, one set per body) with its welded triangles.
+pub fn rest_bodies<'a>(
+    rest: &'a [Vec<Point3<f64>>],
+    welded: &'a [crate::mesh::WeldedMesh],
+) -> Vec<RestBody<'a>> {
+    rest.iter()
+        .zip(welded)
+        .map(|(p, w)| (p.as_slice(), w.triangles.as_slice()))
+        .collect()
+}
+
 /// Default `φ̄` as a fraction of the object's rest size ([`crate::mesh::surface_size`]): one
 /// half, as when the size was the diagonal of the object's axis-aligned rest bounding box
 /// (until 2026-12-02; a rotation of the rig changed it). On the committed object scenes the
@@ -456,26 +468,14 @@ impl ContactPass {
     fn run_once(&self, positions: &[Vec<Point3<f64>>], time: f64) -> Result<PassOutput, PassError> {
         let wall = Instant::now();
         self.check_counts(positions)?;
-        let normals: Vec<Vec<Vector3<f64>>> = positions
-            .par_iter()
-            .zip(&self.bodies)
-            .map(|(p, b)| vertex_normals(p, &b.triangles, NormalWeighting::Area))
-            .collect();
-        let posed = positions
-            .iter()
-            .zip(&self.bodies)
-            .enumerate()
-            .map(|(body, (p, b))| {
-                b.index
-                    .pose(p)
-                    .map_err(|source| PassError::Intersect { body, source })
-            })
-            .collect::<Result<Vec<_>, _>>()?;
+        let posed = self.posed(positions)?;
+        let pairs = self.candidate_pairs(&posed);
+        let normals = self.paired_normals(positions, &pairs);
         let mut timings = StageTimings {
             setup: wall.elapsed().as_secs_f64(),
             ..Default::default()
         };
-        let contacts = self.contacts(positions, &normals, &posed, time)?;
+        let contacts = self.contacts(positions, &normals, &posed, &pairs, time)?;
         for c in &contacts {
             timings.intersection += c.contact.timings.intersection;
             timings.mapping += c.contact.timings.mapping;
@@ -534,21 +534,68 @@ impl ContactPass {
     }
 
     /// The contacts (Sec. 4) of every pair of bodies whose boxes overlap, in parallel.
+    /// Every body posed (its tree refit at its positions), or none when there are fewer than
+    /// two bodies: no pair to find, the positions only checked (a single-body rig's frame
+    /// paid a tree and the normals here for nothing, four times its skinning).
+    fn posed<'a>(
+        &'a self,
+        positions: &'a [Vec<Point3<f64>>],
+    ) -> Result<Vec<crate::intersect::PosedMesh<'a>>, PassError> {
+        let bodies = positions.iter().zip(&self.bodies).enumerate();
+        if self.bodies.len() < 2 {
+            for (body, (p, b)) in bodies {
+                (b.index.check_frame(p)).map_err(|source| PassError::Intersect { body, source })?;
+            }
+            return Ok(Vec::new());
+        }
+        bodies
+            .map(|(body, (p, b))| {
+                b.index
+                    .pose(p)
+                    .map_err(|source| PassError::Intersect { body, source })
+            })
+            .collect()
+    }
+
+    /// The body pairs to resolve: both in size, their boxes overlapping.
+    fn candidate_pairs(&self, posed: &[crate::intersect::PosedMesh]) -> Vec<(usize, usize)> {
+        let sized: Vec<bool> = (0..posed.len())
+            .map(|b| self.in_size(b, &posed[b]))
+            .collect();
+        (0..posed.len())
+            .flat_map(|a| (a + 1..posed.len()).map(move |b| (a, b)))
+            .filter(|&(a, b)| sized[a] && sized[b])
+            .filter(|&(a, b)| boxes_overlap(&posed[a], &posed[b]))
+            .collect()
+    }
+
+    /// Area-weighted vertex normals of the bodies in a pair (empty for the others, which no
+    /// contact and no deformation reads).
+    fn paired_normals(
+        &self,
+        positions: &[Vec<Point3<f64>>],
+        pairs: &[(usize, usize)],
+    ) -> Vec<Vec<Vector3<f64>>> {
+        let paired = |b: usize| pairs.iter().any(|&(x, y)| x == b || y == b);
+        positions
+            .par_iter()
+            .zip(&self.bodies)
+            .enumerate()
+            .map(|(body, (p, b))| match paired(body) {
+                true => vertex_normals(p, &b.triangles, NormalWeighting::Area),
+                false => Vec::new(),
+            })
+            .collect()
+    }
+
     fn contacts(
         &self,
         positions: &[Vec<Point3<f64>>],
         normals: &[Vec<Vector3<f64>>],
         posed: &[crate::intersect::PosedMesh],
+        pairs: &[(usize, usize)],
         time: f64,
     ) -> Result<Vec<ContactSummary>, PassError> {
-        let sized: Vec<bool> = (0..posed.len())
-            .map(|b| self.in_size(b, &posed[b]))
-            .collect();
-        let pairs: Vec<(usize, usize)> = (0..posed.len())
-            .flat_map(|a| (a + 1..posed.len()).map(move |b| (a, b)))
-            .filter(|&(a, b)| sized[a] && sized[b])
-            .filter(|&(a, b)| boxes_overlap(&posed[a], &posed[b]))
-            .collect();
         let found = pairs
             .par_iter()
             .map(|&(a, b)| {

@@ -162,11 +162,7 @@ fn a_full_example_parses_and_resolves() {
     assert_eq!(overrides[0].safeguard_angle, Some(70.0));
     let pre = contact_skin::frames::Precomputed::new(&rig, contact_skin::skinning::Method::Lbs);
     let rest = contact_skin::frames::welded_positions(&rig, &pre, None, 0.0);
-    let bodies: Vec<_> = rest
-        .iter()
-        .zip(&pre.welded)
-        .map(|(p, w)| (p.as_slice(), w.triangles.as_slice()))
-        .collect();
+    let bodies = contact_skin::pass::rest_bodies(&rest, &pre.welded);
     let pass = contact_skin::pass::ContactPass::new(&bodies, params.clone(), overrides.clone())
         .expect("pass");
     assert_eq!(pass.pair_params(0, 2, 0.0).safeguard_angle, 70.0);

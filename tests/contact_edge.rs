@@ -164,6 +164,22 @@ fn bad_input_gives_typed_errors() {
         ContactPass::new(&[(&a, &tris), (&b, &s.triangles)], params, vec![]).expect("tolerated");
     let out = pass.run(&[a.clone(), b.clone()]).expect("runs");
     assert!(finite(&out.positions));
+    // One body: no pair and no tree to build, its positions still checked; a finite frame
+    // comes back as it went in.
+    let single = pass_for(&[(&a, &s.triangles)]);
+    let mut nan = a.clone();
+    nan[7].y = f64::NAN;
+    assert!(matches!(
+        single.run(&[nan]),
+        Err(PassError::Intersect { body: 0, .. })
+    ));
+    assert!(matches!(
+        single.run(&[a[..10].to_vec()]),
+        Err(PassError::Intersect { body: 0, .. })
+    ));
+    let out = single.run(std::slice::from_ref(&a)).expect("runs");
+    assert_eq!(out.positions, vec![a.clone()]);
+    assert!(out.contacts.is_empty());
 }
 
 /// Sec. 4.2: when one object sinks past its silhouette into the other, the other side's

@@ -1,5 +1,7 @@
-//! What the benchmarks share: loading a committed rig.
+//! What the benchmarks share: loading a committed rig, the contact pass between its bodies.
 
+use contact_skin::frames::{self, Precomputed};
+use contact_skin::pass::{ContactPass, ObjectParams};
 use contact_skin::rig::{self, Rig};
 use std::path::Path;
 
@@ -9,4 +11,13 @@ pub fn committed_rig(name: &str) -> Rig {
         .join("rigs")
         .join(format!("{name}.glb"));
     rig::load(&path).expect("committed rig")
+}
+
+/// The contact pass between the bodies of `rig` (skinned as `pre`) at their defaults, as
+/// `pose` without a configuration.
+pub fn object_pass(rig: &Rig, pre: &Precomputed) -> ContactPass {
+    let rest = frames::welded_positions(rig, pre, None, 0.0);
+    let bodies = contact_skin::pass::rest_bodies(&rest, &pre.welded);
+    let params = vec![ObjectParams::default(); bodies.len()];
+    ContactPass::new(&bodies, params, Vec::new()).expect("contact pass")
 }

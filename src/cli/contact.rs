@@ -6,7 +6,7 @@
 
 use contact_skin::config::{ContactConfig, SelfContactSettings};
 use contact_skin::frames::{self, Frame, Precomputed};
-use contact_skin::pass::{ContactPass, PassOutput, RestBody, StageTimings};
+use contact_skin::pass::{rest_bodies, ContactPass, PassOutput, StageTimings};
 pub use contact_skin::report::timings::{median, median_folds, median_stages, FoldMs};
 use contact_skin::rig::Rig;
 use contact_skin::selfcontact::fold::FoldTimings;
@@ -67,11 +67,7 @@ impl ContactRun {
         let cfg = found.unwrap_or_default();
         let (params, overrides, file_passes) = cfg.resolve(rig, &pre.welded)?;
         let rest = frames::welded_positions(rig, pre, None, 0.0);
-        let bodies: Vec<RestBody> = rest
-            .iter()
-            .zip(&pre.welded)
-            .map(|(p, w)| (p.as_slice(), w.triangles.as_slice()))
-            .collect();
+        let bodies = rest_bodies(&rest, &pre.welded);
         let passes = passes.unwrap_or(file_passes).max(1);
         let pass = ContactPass::new(&bodies, params, overrides)
             .map_err(|e| {

@@ -282,7 +282,7 @@ impl MeshIndex {
     }
 
     /// One position per vertex of the mesh, all finite.
-    fn check_frame(&self, positions: &[Point3<f64>]) -> Result<(), IntersectError> {
+    pub(crate) fn check_frame(&self, positions: &[Point3<f64>]) -> Result<(), IntersectError> {
         self.check_count(positions)?;
         check_positions(positions)
     }
