@@ -255,6 +255,21 @@ pub struct BodyDiagnostics {
     pub stats: Option<crate::deform::DeformStats>,
 }
 
+impl BodyDiagnostics {
+    /// Those of a body of `n` welded vertices that the pass left as it was.
+    pub fn unchanged(n: usize) -> Self {
+        Self {
+            u: vec![1.0; n],
+            zone: vec![false; n],
+            direction: vec![Vector3::zeros(); n],
+            bulge: vec![Vector3::zeros(); n],
+            amplitude: vec![0.0; n],
+            slope: vec![0.0; n],
+            stats: None,
+        }
+    }
+}
+
 /// Summary of one contact.
 #[derive(Clone, Debug)]
 pub struct ContactSummary {
@@ -269,8 +284,10 @@ pub struct ContactSummary {
 pub struct PassOutput {
     /// Output positions per body (welded vertices).
     pub positions: Vec<Vec<Point3<f64>>>,
-    /// Diagnostics per body.
-    pub diagnostics: Vec<BodyDiagnostics>,
+    /// Diagnostics per body, `None` for a body the pass left as it was ([`PassOutput::diagnostics_of`] gives its
+    /// [`BodyDiagnostics::unchanged`]): not made in every frame for `--diagnostics` alone
+    /// (six arrays per body, a fifth of a single-body frame's skinning time).
+    pub diagnostics: Vec<Option<BodyDiagnostics>>,
     /// Contacts found.
     pub contacts: Vec<ContactSummary>,
     /// Stage timings.
@@ -284,17 +301,8 @@ impl PassOutput {
     /// contact zone on it), with the diagnostics of either.
     fn push_body(&mut self, deformed: Option<RegionDeformation>, input: &[Point3<f64>]) {
         let Some(d) = deformed else {
-            let n = input.len();
             self.positions.push(input.to_vec());
-            self.diagnostics.push(BodyDiagnostics {
-                u: vec![1.0; n],
-                zone: vec![false; n],
-                direction: vec![Vector3::zeros(); n],
-                bulge: vec![Vector3::zeros(); n],
-                amplitude: vec![0.0; n],
-                slope: vec![0.0; n],
-                stats: None,
-            });
+            self.diagnostics.push(None);
             return;
         };
         self.timings.parametrization += d.timings.parametrization;
@@ -303,7 +311,7 @@ impl PassOutput {
         self.timings.deformation += d.timings.deformation;
         self.timings.factorization += d.timings.factorization;
         self.positions.push(d.positions);
-        self.diagnostics.push(BodyDiagnostics {
+        self.diagnostics.push(Some(BodyDiagnostics {
             u: d.u,
             zone: d.zone,
             direction: d.direction,
@@ -311,7 +319,18 @@ impl PassOutput {
             amplitude: d.amplitude,
             slope: d.slope,
             stats: Some(d.stats),
-        });
+        }));
+    }
+
+    /// The diagnostics of `body` (`None` beyond the bodies).
+    pub fn diagnostics_of(&self, body: usize) -> Option<std::borrow::Cow<'_, BodyDiagnostics>> {
+        use std::borrow::Cow;
+        match self.diagnostics.get(body)? {
+            Some(d) => Some(Cow::Borrowed(d)),
+            None => Some(Cow::Owned(BodyDiagnostics::unchanged(
+                self.positions.get(body)?.len(),
+            ))),
+        }
     }
 }
 

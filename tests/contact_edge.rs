@@ -58,7 +58,10 @@ fn deep_penetration_is_resolved_without_nan() {
         for (k, input) in [a, b].iter().enumerate() {
             let v0 = contact_skin::mesh::signed_volume(input, &s.triangles);
             let v1 = contact_skin::mesh::signed_volume(&out.positions[k], &s.triangles);
-            let stats = out.diagnostics[k].stats.expect("deformed");
+            let stats = out.diagnostics[k]
+                .as_ref()
+                .and_then(|d| d.stats)
+                .expect("deformed");
             let inv = metrics::inverted_faces(&s.triangles, input, &out.positions[k]);
             let err = ((v1 - v0) / v0).abs();
             println!("depth {depth} body {k}: volume error {err:.2e}, root {:?}, h_v {:.3}, zone {}, inverted {}", stats.root, stats.bulge_height, stats.zone_vertices, inv.inverted);
@@ -117,7 +120,10 @@ fn contact_at_an_open_border_keeps_the_border_fixed() {
     let out = pass.run(&[plane.clone(), ball.clone()]).expect("runs");
     assert!(finite(&out.positions));
     assert_eq!(out.contacts.len(), 1);
-    let stats = out.diagnostics[0].stats.expect("sheet deformed");
+    let stats = out.diagnostics[0]
+        .as_ref()
+        .and_then(|d| d.stats)
+        .expect("sheet deformed");
     assert!(stats.extent_bound, "the border must bound the extent");
     assert_eq!(stats.root, None, "an open sheet has no volume to preserve");
     let border = |p: &Point3<f64>| p.x.abs().max(p.y.abs()) > 1.0 - 1e-9;
@@ -180,6 +186,12 @@ fn bad_input_gives_typed_errors() {
     let out = single.run(std::slice::from_ref(&a)).expect("runs");
     assert_eq!(out.positions, vec![a.clone()]);
     assert!(out.contacts.is_empty());
+    // Its diagnostics are not stored, but given: those of an untouched body.
+    assert!(out.diagnostics.len() == 1 && out.diagnostics[0].is_none());
+    let d = out.diagnostics_of(0).expect("one body");
+    assert_eq!(d.u, vec![1.0; a.len()]);
+    assert!(d.stats.is_none() && d.zone.iter().all(|z| !z) && d.bulge.len() == a.len());
+    assert!(out.diagnostics_of(1).is_none());
 }
 
 /// Sec. 4.2: when one object sinks past its silhouette into the other, the other side's

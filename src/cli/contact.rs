@@ -6,7 +6,9 @@
 
 use contact_skin::config::{ContactConfig, SelfContactSettings};
 use contact_skin::frames::{self, Frame, Precomputed};
-use contact_skin::pass::{rest_bodies, ContactPass, PassOutput, StageTimings};
+use contact_skin::pass::{
+    rest_bodies, BodyDiagnostics as PassBodyDiagnostics, ContactPass, PassOutput, StageTimings,
+};
 pub use contact_skin::report::timings::{median, median_folds, median_stages, FoldMs};
 use contact_skin::rig::Rig;
 use contact_skin::selfcontact::fold::FoldTimings;
@@ -338,7 +340,9 @@ pub fn diagnostics(rig: &Rig, pre: &Precomputed, c: &ContactFrame) -> FrameDiagn
         .enumerate()
         .map(|(b, body)| {
             let w = &pre.welded[b];
-            let d = &c.output.diagnostics[b];
+            let d = c.output.diagnostics_of(b).unwrap_or_else(|| {
+                std::borrow::Cow::Owned(PassBodyDiagnostics::unchanged(w.representative.len()))
+            });
             let v3 = |v: &nalgebra::Vector3<f64>| [v.x, v.y, v.z];
             BodyDiagnostics {
                 index: b,
