@@ -260,7 +260,7 @@ impl TriangleBvh {
 
     /// Each live slot's corners, per leaf node, for [`TriangleBvh::refit_nodes_at`]: each
     /// vertex once per leaf (a leaf of four faces has about six corners, not twelve).
-    pub(crate) fn leaf_corners(&self, triangles: &[[u32; 3]]) -> LeafCorners {
+    pub fn leaf_corners(&self, triangles: &[[u32; 3]]) -> LeafCorners {
         let mut offsets = Vec::with_capacity(self.nodes.len() + 1);
         let mut vertices = Vec::new();
         offsets.push(0);
@@ -275,19 +275,28 @@ impl TriangleBvh {
             vertices.extend(leaf);
             offsets.push(vertices.len() as u32);
         }
-        LeafCorners { offsets, vertices }
+        let needs = vertices.iter().max().map_or(0, |&v| v as usize + 1);
+        LeafCorners {
+            offsets,
+            vertices,
+            needs,
+        }
     }
 
     /// Like [`TriangleBvh::refit`] for the node boxes only, each leaf's from its distinct
     /// corners (`corners` from [`TriangleBvh::leaf_corners`] of this tree, the positions
-    /// finite): every face's box is not written, about half the work of a refit, for a tree
-    /// whose only query is [`TriangleBvh::pairs_between_sets`] (the self-contact pass's
-    /// detection, which a frame without contact is made of). A leaf's box is the corners' box
-    /// (which also holds the corners of faces collapsed to a point, whose own boxes are
-    /// empty), empty when it is a point, so it holds its faces' boxes and the pairs found are
-    /// the same.
-    pub(crate) fn refit_nodes_at(&mut self, positions: &[Point3<f64>], corners: &LeafCorners) {
-        debug_assert_eq!(corners.offsets.len(), self.nodes.len() + 1);
+    /// finite): no face's box is written (a sixth of a refit's instructions on the finger's
+    /// detection tree), for a tree whose only query is [`TriangleBvh::pairs_between_sets`]
+    /// (the self-contact pass's detection, which a frame without contact is made of). A
+    /// leaf's box is the corners' box (which also holds the corners of faces collapsed to a
+    /// point, whose own boxes are empty), empty when it is a point, so it holds its faces'
+    /// boxes and the pairs found are the same. Whether the tree was refit: not when `corners`
+    /// were made for a tree of another shape or `positions` miss one of them (the tree is
+    /// then left as it was).
+    pub fn refit_nodes_at(&mut self, positions: &[Point3<f64>], corners: &LeafCorners) -> bool {
+        if corners.offsets.len() != self.nodes.len() + 1 || positions.len() < corners.needs {
+            return false;
+        }
         for i in (0..self.nodes.len()).rev() {
             let n = self.nodes[i];
             self.nodes[i].aabb = if n.count > 0 {
@@ -306,6 +315,7 @@ impl TriangleBvh {
             };
         }
         self.faces_fitted = false;
+        true
     }
 
     /// Whether leaf slot `slot` holds a face of the tree.
@@ -600,6 +610,8 @@ impl TriangleBvh {
 pub struct LeafCorners {
     offsets: Vec<u32>,
     vertices: Vec<u32>,
+    /// One more than the largest vertex: the positions a refit needs.
+    needs: usize,
 }
 
 /// Two leaves, of this tree and of `other`, and how each gets a slot's box
@@ -853,7 +865,7 @@ mod tests {
         refit.refit(&point, &tris);
         assert!(refit.candidate_pairs(&refit).is_empty());
         // Refit at the nodes only, every leaf's corners are one point: empty too.
-        nodes_only.refit_nodes_at(&point, &nodes_only.leaf_corners(&tris));
+        assert!(nodes_only.refit_nodes_at(&point, &nodes_only.leaf_corners(&tris)));
         assert!(nodes_only.root_box().is_none());
         assert!(nodes_only.candidate_pairs(&nodes_only).is_empty());
         let sets = nodes_only.face_sets(|f| 1 + (f % 2) as u8);
@@ -971,7 +983,14 @@ mod tests {
                 // Refit at the nodes only, the pairs are the same; the other queries take
                 // each face's box as its leaf's, so they find more pairs, those among them.
                 let mut nodes_only = tree.clone();
-                nodes_only.refit_nodes_at(&positions, &corners);
+                assert!(nodes_only.refit_nodes_at(&positions, &corners));
+                // Corners of another tree, or positions that miss some: refused.
+                let mut kept = nodes_only.clone();
+                assert!(!kept.refit_nodes_at(&positions[..10], &corners));
+                let other_corners =
+                    TriangleBvh::build(&positions, &mesh.1, &a).leaf_corners(&mesh.1);
+                assert!(!kept.refit_nodes_at(&positions, &other_corners));
+                assert_eq!(kept.root_box(), nodes_only.root_box());
                 tree.refit(&positions, &mesh.1);
                 let roots = |t: &TriangleBvh| t.root_box().expect("faces");
                 assert_eq!(roots(&nodes_only), roots(&tree));

@@ -215,8 +215,11 @@ impl MeshIndex {
     ) -> Result<(), IntersectError> {
         self.check_frame(positions)?;
         debug_assert!(tree.same_shape(&self.bvh), "a tree of another index");
-        tree.refit_nodes_at(positions, corners);
-        Ok(())
+        match tree.refit_nodes_at(positions, corners) {
+            true => Ok(()),
+            // Checked positions: only corners of another index miss them.
+            false => Err(IntersectError::LeafCornersMismatch),
+        }
     }
 
     /// The surface at the positions the index was built (or restricted) at, its tree as it

@@ -117,6 +117,9 @@ pub enum IntersectError {
     /// ([`crate::intersect::Intersections::between_sets`]).
     #[error("the face sets were marked on a different tree")]
     FaceSetsMismatch,
+    /// [`LeafCorners`] of another tree given to a refit ([`TriangleBvh::refit_nodes_at`]).
+    #[error("the leaf corners were made for a different tree")]
+    LeafCornersMismatch,
     /// Intersections passed with a mesh they were not computed on.
     #[error("the intersections refer to vertices or faces this mesh does not have")]
     Mismatch,
