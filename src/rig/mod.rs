@@ -1,6 +1,6 @@
 //! The rig: a glTF scene reduced to what posing needs.
 //!
-//! [`load`] reads a `.gltf` (embedded data URIs or sibling `.bin` files) or `.glb` into a [`Rig`]:
+//! [`load()`] reads a `.gltf` (embedded data URIs or sibling `.bin` files) or `.glb` into a [`Rig`]:
 //! the node hierarchy with rest transforms, the skins, the skinned mesh instances ([`Body`]) and
 //! the animations. Every accessor is read through [`accessor`], which checks bounds, counts and
 //! component types before touching a byte, so malformed files give a typed [`RigError`].

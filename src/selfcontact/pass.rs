@@ -96,7 +96,7 @@ pub struct SelfContactPass {
     /// Joint pairs left out when deriving, one reason each ([`derive_pairs_reporting`]).
     skipped: Vec<String>,
     /// Detection trees of finished frames, one set per body, each refit in place by a later
-    /// frame ([`MeshIndex::refit_tree_in`]) instead of copied from the index: as many sets as
+    /// frame ([`MeshIndex::refit_nodes_in`]) instead of copied from the index: as many sets as
     /// frames ran at once. Only their allocations are reused: every box is rewritten before a
     /// query reads it, so a frame's output does not depend on which set it got.
     spare_trees: Mutex<Vec<Vec<Option<TriangleBvh>>>>,

@@ -104,7 +104,7 @@ pub(super) fn blend_and_balance(
     })
 }
 
-/// The bulge guard's scales ([`super::bulge_guard`]) for the bulge `bulge` times `scale`
+/// The bulge guard's scales ([`crate::selfcontact::bulge_guard`]) for the bulge `bulge` times `scale`
 /// (`γ h_v`) on `base`, whose sum is `out`.
 fn lowered_bulge(
     parts: &[MeshIndex; 2],

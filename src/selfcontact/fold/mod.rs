@@ -358,7 +358,7 @@ fn cut_the_crease(
     Ok((crease, truncated))
 }
 
-/// Separated regions (no shared region, [`PairRegions::separated`]): no crease to cut; the
+/// Separated regions (no shared region, [`crate::selfcontact::regions::PairRegions::separated`]): no crease to cut; the
 /// parts are the two regions as they are (the rest labels), indexed for Sec. 4.2-4.4.
 fn separated_parts(
     pre: &FoldPre,
