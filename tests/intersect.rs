@@ -889,6 +889,32 @@ fn parts_indexed_within_their_union_match_parts_indexed_alone() {
     }
 }
 
+/// A separated pair's parts never change: indexed once at rest and posed at each frame, they
+/// give the intersections of parts indexed at the frame's positions (the self-contact pass
+/// builds them once since 2026-12-04).
+#[test]
+fn parts_indexed_at_rest_and_posed_match_parts_indexed_at_the_frame() {
+    let ((rest, tris), parts) = folded_tube(30.0, 1e-3);
+    let ((frame, frame_tris), frame_parts) = folded_tube(150.0, 1e-3);
+    assert_eq!((&tris, &parts), (&frame_tris, &frame_parts));
+    let all: Vec<u32> = (0..tris.len() as u32).collect();
+    let union = PartsUnion::new(&rest, &tris, &all).expect("union");
+    let at_rest =
+        MeshIndex::self_contact_parts_within(Some(&union), &rest, &tris, &parts).expect("at rest");
+    let at_frame = MeshIndex::self_contact_parts_within(Some(&union), &frame, &tris, &parts)
+        .expect("at the frame");
+    let hits = |p: &[MeshIndex; 2], at: &[Point3<f64>]| {
+        let posed = [p[0].pose(at).expect("p0"), p[1].pose(at).expect("p1")];
+        let ints = Intersections::self_contact(&posed[0], &posed[1]).expect("self contact");
+        let keys: Vec<HitKey> = ints.hits.iter().map(|h| (h.side, h.edge, h.face)).collect();
+        keys
+    };
+    let expected = hits(&at_frame, &frame);
+    assert!(!expected.is_empty());
+    assert_eq!(hits(&at_rest, &frame), expected);
+    assert!(hits(&at_rest, &rest).is_empty());
+}
+
 #[test]
 fn self_contact_of_a_folded_tube_skips_adjacent_faces() {
     // Generic position (vertices jittered): the exact result equals a brute-force float scan.

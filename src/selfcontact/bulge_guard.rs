@@ -64,7 +64,7 @@ pub struct BulgeStep<'a> {
 /// `parts` from crossing by more than the tolerance along the bulge's path (1 where no pair
 /// asks for less); `None` when no pair does.
 pub fn bulge_scales(
-    parts: &[MeshIndex; 2],
+    parts: [&MeshIndex; 2],
     bulge: &BulgeStep,
 ) -> Result<Option<Vec<f64>>, IntersectError> {
     let trees = [
@@ -367,7 +367,7 @@ mod tests {
             output: &output,
             tolerance,
         };
-        bulge_scales(&parts, &bulge).expect("finite")
+        bulge_scales([&parts[0], &parts[1]], &bulge).expect("finite")
     }
 
     /// The apex at 0.5 rising by 1 pierces the flat face at `t = 0.5` of its bulge: without

@@ -23,7 +23,7 @@ pub(super) fn blend_and_balance(
     g: &FoldInput,
     regions: [&RegionDeformation; 2],
     params: &FoldParams,
-    parts: &[MeshIndex; 2],
+    parts: [&MeshIndex; 2],
 ) -> Result<Blended, FoldError> {
     let (positions, triangles) = (g.positions, g.triangles);
     let gamma = params.deform.gamma;
@@ -107,7 +107,7 @@ pub(super) fn blend_and_balance(
 /// The bulge guard's scales ([`crate::selfcontact::bulge_guard`]) for the bulge `bulge` times `scale`
 /// (`γ h_v`) on `base`, whose sum is `out`.
 fn lowered_bulge(
-    parts: &[MeshIndex; 2],
+    parts: [&MeshIndex; 2],
     edge: f64,
     triangles: &[[u32; 3]],
     base: &[Point3<f64>],

@@ -26,7 +26,7 @@ use crate::deform::region::{bulge_height, shape_region};
 use crate::deform::volume::RootKind;
 use crate::deform::{DeformStats, RegionDeformation, RegionFrame};
 use crate::heat::{Boundary, EdgePoint};
-use crate::intersect::MeshIndex;
+use crate::intersect::{MeshIndex, PosedMesh};
 use crate::pass::StageTimings;
 use crate::report::metrics::WindingNumber;
 use nalgebra::{Point3, Vector3};
@@ -254,7 +254,7 @@ pub fn resolve_detected_in(
     timings.directions = laps.next();
     let [s1, s2] = deform_both(pre, geometry, &contact, &sigma, params)?;
     timings.deformation = laps.next();
-    let blended = blend_and_balance(pre, geometry, [&s1, &s2], params, &truncated)?;
+    let blended = blend_and_balance(pre, geometry, [&s1, &s2], params, truncated.indices())?;
     timings.volume = laps.next();
     let gamma_h = params.deform.gamma * blended.h;
     timings.stages = table1_stages(&timings, &contact.timings, [&s1.timings, &s2.timings]);
@@ -331,7 +331,7 @@ fn cut_the_crease(
     g: &FoldInput,
     tree: Option<&InsideTwice>,
     params: &FoldParams,
-) -> Result<(Crease, [MeshIndex; 2]), FoldError> {
+) -> Result<(Crease, Truncated<'static>), FoldError> {
     let r = &pre.regions;
     let intersecting = match tree {
         Some(tree) => with_buried(pre, g.positions, g.normals, tree, &detection.vertices),
@@ -355,18 +355,57 @@ fn cut_the_crease(
     let labels = cut_labels(g.triangles, &pre.faces, &crease.on_w1);
     let truncated =
         MeshIndex::self_contact_parts_within(Some(&pre.parts), g.positions, g.triangles, &labels)?;
-    Ok((crease, truncated))
+    Ok((crease, Truncated::Cut(Box::new(truncated))))
 }
 
-/// Separated regions (no shared region, [`crate::selfcontact::regions::PairRegions::separated`]): no crease to cut; the
-/// parts are the two regions as they are (the rest labels), indexed for Sec. 4.2-4.4.
-fn separated_parts(
-    pre: &FoldPre,
+/// A fold's two truncated parts in one frame, indexed for Sec. 4.2-4.4.
+enum Truncated<'p> {
+    /// Indexed at the frame's positions: the crease cut moves them every frame.
+    Cut(Box<[MeshIndex; 2]>),
+    /// Separated regions' parts, indexed once at rest ([`FoldPre`]): their trees are refit
+    /// to the frame's positions where posed.
+    AtRest(&'p [MeshIndex; 2]),
+}
+
+impl Truncated<'_> {
+    /// The two parts' indices.
+    fn indices(&self) -> [&MeshIndex; 2] {
+        match self {
+            Truncated::Cut(parts) => [&parts[0], &parts[1]],
+            Truncated::AtRest([a, b]) => [a, b],
+        }
+    }
+
+    /// The two parts at `positions`, those of the frame.
+    fn posed<'a>(&'a self, positions: &'a [Point3<f64>]) -> Result<[PosedMesh<'a>; 2], FoldError> {
+        Ok(match self {
+            // Indexed at these positions (`cut_the_crease`): no second refit.
+            Truncated::Cut(parts) => [
+                parts[0].posed_as_built(positions)?,
+                parts[1].posed_as_built(positions)?,
+            ],
+            Truncated::AtRest([a, b]) => [a.pose(positions)?, b.pose(positions)?],
+        })
+    }
+}
+
+/// Separated regions (no shared region, [`crate::selfcontact::regions::PairRegions::separated`]):
+/// no crease to cut; the parts are the two regions as they are (the rest labels), indexed
+/// once at rest ([`FoldPre`]; indexed here at `positions` should a pre lack them).
+fn separated_parts<'p>(
+    pre: &'p FoldPre,
     positions: &[Point3<f64>],
     triangles: &[[u32; 3]],
-) -> Result<(Crease, [MeshIndex; 2]), FoldError> {
-    let parts =
-        MeshIndex::self_contact_parts_within(Some(&pre.parts), positions, triangles, &pre.labels)?;
+) -> Result<(Crease, Truncated<'p>), FoldError> {
+    let parts = match &pre.separated_parts {
+        Some(parts) => Truncated::AtRest(parts),
+        None => Truncated::Cut(Box::new(MeshIndex::self_contact_parts_within(
+            Some(&pre.parts),
+            positions,
+            triangles,
+            &pre.labels,
+        )?)),
+    };
     let crease = Crease {
         on_w1: pre.regions.w1.clone(),
         value: 0.0,
@@ -495,18 +534,14 @@ fn with_buried(
 
 /// Sec. 4.2-4.4 between the truncated parts, with the skeleton's (or the user's) direction.
 fn truncated_contact(
-    truncated: &[MeshIndex; 2],
+    truncated: &Truncated,
     positions: &[Point3<f64>],
     normals: &[Vector3<f64>],
     direction: DirectionMode,
     params: &FoldParams,
     tree: Option<&InsideTwice>,
 ) -> Result<Option<Contact>, FoldError> {
-    // The parts were indexed at these positions (`cut_the_crease`): no second refit.
-    let posed = [
-        truncated[0].posed_as_built(positions)?,
-        truncated[1].posed_as_built(positions)?,
-    ];
+    let posed = truncated.posed(positions)?;
     let side = |k: usize| SideFrame {
         mesh: &posed[k],
         normals,

@@ -31,6 +31,9 @@ pub struct FoldPre {
     pub(super) faces: Vec<u32>,
     /// `faces` indexed at rest, from which each frame's truncated parts are indexed.
     pub(super) parts: PartsUnion,
+    /// Separated regions: their two parts (the rest labels', which no crease moves) indexed
+    /// once at rest, their trees refit per frame (built per frame until 2026-12-04).
+    pub(super) separated_parts: Option<[MeshIndex; 2]>,
     pub(super) closed: bool,
     /// The body's winding-number tree at rest ([`FoldPre::body_winding`]), shared by the
     /// body's folds.
@@ -104,6 +107,10 @@ impl FoldPre {
         let labels = rest_labels(triangles, &regions);
         // Checks the positions (finite) before any tree is built on them.
         let parts = PartsUnion::new(rest, triangles, &faces)?;
+        let separated_parts = regions
+            .separated()
+            .then(|| MeshIndex::self_contact_parts_within(Some(&parts), rest, triangles, &labels))
+            .transpose()?;
         // Only the topology is needed here (no factorization of the whole mesh).
         let closed = crate::mesh::Region::whole(triangles).is_closed();
         let topology = CreaseTopology::new(triangles, &faces, &regions.w1, &regions.w2);
@@ -129,6 +136,7 @@ impl FoldPre {
             labels,
             faces,
             parts,
+            separated_parts,
             closed,
             winding,
             topology,
