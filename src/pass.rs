@@ -284,9 +284,10 @@ pub struct ContactSummary {
 pub struct PassOutput {
     /// Output positions per body (welded vertices).
     pub positions: Vec<Vec<Point3<f64>>>,
-    /// Diagnostics per body, `None` for a body the pass left as it was ([`PassOutput::diagnostics_of`] gives its
-    /// [`BodyDiagnostics::unchanged`]): not made in every frame for `--diagnostics` alone
-    /// (six arrays per body, a fifth of a single-body frame's skinning time).
+    /// Diagnostics per body, `None` for a body the pass left as it was
+    /// ([`PassOutput::diagnostics_of`] gives its [`BodyDiagnostics::unchanged`]): not made in
+    /// every frame for `--diagnostics` alone (six arrays per body, a fifth of a single-body
+    /// frame's skinning time).
     pub diagnostics: Vec<Option<BodyDiagnostics>>,
     /// Contacts found.
     pub contacts: Vec<ContactSummary>,
@@ -552,7 +553,6 @@ impl ContactPass {
         Ok(())
     }
 
-    /// The contacts (Sec. 4) of every pair of bodies whose boxes overlap, in parallel.
     /// Every body posed (its tree refit at its positions), or none when there are fewer than
     /// two bodies: no pair to find, the positions only checked (a single-body rig's frame
     /// paid a tree and the normals here for nothing, four times its skinning).
@@ -607,6 +607,7 @@ impl ContactPass {
             .collect()
     }
 
+    /// The contacts (Sec. 4) of the candidate `pairs` of bodies, in parallel.
     fn contacts(
         &self,
         positions: &[Vec<Point3<f64>>],
