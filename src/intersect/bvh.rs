@@ -236,8 +236,8 @@ impl TriangleBvh {
 
     /// Every live slot's box from `face_box(face id)`, then the nodes'.
     fn refit_boxes(&mut self, face_box: impl Fn(u32) -> Aabb + Sync) {
-        // In chunks of slots, each a plain loop (per slot through rayon, the closure was a
-        // call per face: a third of a frame without contact).
+        // In chunks of slots, each a plain loop (per slot through rayon, `face_box` was a call
+        // per face).
         const CHUNK: usize = 1024;
         let live = self.live.as_deref();
         self.faces

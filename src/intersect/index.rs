@@ -5,6 +5,7 @@ use super::bvh::{FaceSets, LeafCorners, TriangleBvh};
 use super::IntersectError;
 use nalgebra::Point3;
 use std::borrow::Cow;
+use std::sync::OnceLock;
 
 /// The pose-independent part of one surface: a triangle mesh, or the subset of its faces that
 /// forms one side of a self-contact (2021 Sec. 6). Build once per rig, share between frames.
@@ -25,6 +26,9 @@ pub struct MeshIndex {
     used: Vec<bool>,
     index_degenerate: usize,
     bvh: TriangleBvh,
+    /// The corners of each leaf of `bvh`, made at the first [`MeshIndex::refit_nodes_in`]
+    /// (most indices, a self-contact's parts made per frame, never need them).
+    leaf_corners: OnceLock<LeafCorners>,
 }
 
 impl MeshIndex {
@@ -82,6 +86,7 @@ impl MeshIndex {
             used,
             index_degenerate,
             bvh,
+            leaf_corners: OnceLock::new(),
         })
     }
 
@@ -195,14 +200,9 @@ impl MeshIndex {
         Ok(bvh)
     }
 
-    /// The corners of each leaf of the index's tree, for [`MeshIndex::refit_nodes_in`].
-    pub(crate) fn leaf_corners(&self) -> LeafCorners {
-        self.bvh.leaf_corners(&self.triangles)
-    }
-
     /// [`MeshIndex::refit_tree`] into `tree`, a tree an earlier [`MeshIndex::refit_tree`] of
-    /// this index returned, at its nodes only ([`TriangleBvh::refit_nodes_at`], `corners`
-    /// from [`MeshIndex::leaf_corners`]): for the pair queries between face sets alone
+    /// this index returned, at its nodes only ([`TriangleBvh::refit_nodes_at`], with the
+    /// index's leaf corners, made once): for the pair queries between face sets alone
     /// ([`crate::intersect::Intersections::between_sets`]), which find the same pairs as on a
     /// full refit. Neither the copy of the tree nor its faces' boxes: a frame of the
     /// self-contact pass without contact is about this refit and those queries. `tree` is
@@ -211,10 +211,12 @@ impl MeshIndex {
         &self,
         positions: &[Point3<f64>],
         tree: &mut TriangleBvh,
-        corners: &LeafCorners,
     ) -> Result<(), IntersectError> {
         self.check_frame(positions)?;
         debug_assert!(tree.same_shape(&self.bvh), "a tree of another index");
+        let corners = self
+            .leaf_corners
+            .get_or_init(|| self.bvh.leaf_corners(&self.triangles));
         match tree.refit_nodes_at(positions, corners) {
             true => Ok(()),
             // Checked positions: only corners of another index miss them.

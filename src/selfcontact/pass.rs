@@ -11,7 +11,7 @@ use super::fold::{
 use super::regions::{derive_pairs_reporting, PairRegions, RegionOptions};
 use super::turn_guard::TurnReference;
 use super::SelfContactError;
-use crate::intersect::{FaceSets, IntersectError, LeafCorners, MeshIndex, PosedMesh, TriangleBvh};
+use crate::intersect::{FaceSets, IntersectError, MeshIndex, PosedMesh, TriangleBvh};
 use crate::mesh::operators::{mean_edge_length, vertex_normals, NormalWeighting};
 use crate::mesh::WeldedMesh;
 use crate::report::metrics::{penetrating_among, WindingNumber};
@@ -28,9 +28,8 @@ struct Fold {
     body: usize,
     pre: FoldPre,
     /// The index its detection runs on, shared by every fold of the body: over the faces of
-    /// all their sides, its tree built at rest and refit per frame ([`PosedBodies`]), with
-    /// its leaves' corners.
-    detection: Arc<(MeshIndex, LeafCorners)>,
+    /// all their sides, its tree built at rest and refit per frame ([`PosedBodies`]).
+    detection: Arc<MeshIndex>,
     /// The fold's two sides marked in that tree.
     sets: FaceSets,
     axes: BoneAxes,
@@ -595,8 +594,7 @@ impl SelfContactPass {
         }
         // Detection first: a joint that does not fold into itself costs its detection only.
         let clock = Instant::now();
-        let (index, corners) = &*fold.detection;
-        let posed = bodies.posed(fold.body, index, corners);
+        let posed = bodies.posed(fold.body, &fold.detection);
         let posed = posed.map_err(|e| fail(e.into()))?;
         let detection = fold.pre.detect_on(&posed, &fold.sets, clock);
         let Some(detection) = detection.map_err(fail)? else {
@@ -858,21 +856,20 @@ impl<'p> PosedBodies<'p> {
         &self.positions[body]
     }
 
-    /// `body` posed for detection on `index` (its index: one per body; `corners` its tree's
-    /// leaves'), refitting the tree unless it was refit at these positions: at its nodes only
+    /// `body` posed for detection on `index` (its index: one per body), refitting the tree
+    /// unless it was refit at these positions: at its nodes only
     /// ([`MeshIndex::refit_nodes_in`]), for the detection's queries alone.
     fn posed<'s>(
         &'s mut self,
         body: usize,
         index: &'s MeshIndex,
-        corners: &LeafCorners,
     ) -> Result<PosedMesh<'s>, IntersectError> {
         let positions = &self.positions[body];
         // A tree whose refit fails (a non-finite position) is dropped.
         let tree = match self.trees[body].take() {
             Some(tree) if self.fitted[body] => tree,
             Some(mut tree) => {
-                index.refit_nodes_in(positions, &mut tree, corners)?;
+                index.refit_nodes_in(positions, &mut tree)?;
                 tree
             }
             None => index.refit_tree(positions)?,
@@ -917,7 +914,7 @@ fn with_detection(
     for (body, pre, ..) in &built {
         sided[*body].extend(pre.sided_faces());
     }
-    let mut indices: Vec<Option<Arc<(MeshIndex, LeafCorners)>>> = vec![None; welded.len()];
+    let mut indices: Vec<Option<Arc<MeshIndex>>> = vec![None; welded.len()];
     let mut folds = Vec::with_capacity(built.len());
     for (body, pre, axes, direction) in built {
         let detection = match &mut indices[body] {
@@ -928,13 +925,12 @@ fn with_detection(
                 faces.dedup();
                 let index = MeshIndex::with_faces(&rest[body], &welded[body].triangles, faces)
                     .map_err(|source| SelfPassError::Detection { body, source })?;
-                let corners = index.leaf_corners();
-                Arc::clone(slot.insert(Arc::new((index, corners))))
+                Arc::clone(slot.insert(Arc::new(index)))
             }
         };
         folds.push(Fold {
             body,
-            sets: pre.face_sets(&detection.0),
+            sets: pre.face_sets(&detection),
             detection,
             pre,
             axes,
@@ -1019,11 +1015,10 @@ mod tests {
             ]
         };
         let index = MeshIndex::new(&at(0.0), &tris).expect("index");
-        let corners = index.leaf_corners();
         let mut positions = vec![at(0.0)];
         let mut bodies = PosedBodies::new(&mut positions, None);
         let low_x = |b: &mut PosedBodies| {
-            let posed = b.posed(0, &index, &corners).expect("finite positions");
+            let posed = b.posed(0, &index).expect("finite positions");
             posed.bvh().root_box().expect("a face").min.x
         };
         assert_eq!(low_x(&mut bodies), 0.0);
@@ -1036,7 +1031,7 @@ mod tests {
         assert_eq!(low_x(&mut bodies), -3.0);
         // A non-finite position is refused, and the tree is refit once it is finite again.
         bodies.replace(0, &at(f64::NAN));
-        assert!(bodies.posed(0, &index, &corners).is_err());
+        assert!(bodies.posed(0, &index).is_err());
         bodies.replace(0, &at(2.0));
         assert_eq!(low_x(&mut bodies), 2.0);
     }
