@@ -3,9 +3,10 @@
 //! degenerate inputs and determinism. Every mesh is generated here.
 
 use contact_skin::intersect::{
-    face_facing, farthest_hit, farthest_hits, intersect_meshes, vertex_front_mask, EdgeHit, Facing,
-    FrontSide, IntersectError, IntersectionRegion, Intersections, MeshIndex, PartsUnion, PosedMesh,
-    QuadratureRule, Ray, RayHit, Side, Silhouette,
+    face_facing, farthest_hit, farthest_hit_among, farthest_hits, intersect_meshes,
+    vertex_front_mask, EdgeHit, Facing, FrontSide, IntersectError, IntersectionRegion,
+    Intersections, MeshIndex, PartsUnion, PosedMesh, QuadratureRule, Ray, RayHit, SegmentRays,
+    Side, Silhouette,
 };
 use nalgebra::{Point3, Rotation3, Vector3};
 
@@ -689,6 +690,80 @@ fn farthest_hit_through_a_shared_edge_and_invalid_rays() {
         Ray::new(Point3::origin(), Vector3::z(), -1.0),
     ] {
         assert_eq!(farthest_hit(&posed, &bad), None);
+    }
+}
+
+/// The bisection points of segment `a -> b` (as a boundary bisection visits them, both ways),
+/// its ends, and a point off it.
+fn points_along(a: Point3<f64>, b: Point3<f64>, rng: &mut Rng) -> Vec<Point3<f64>> {
+    let mut out = vec![a, b, a + (b - a) * 1.5 + rng.unit() * 0.3];
+    for toward_b in [true, false] {
+        let (mut lo, mut hi) = (0.0, 1.0);
+        for _ in 0..16 {
+            let mid = 0.5 * (lo + hi);
+            out.push(a + (b - a) * mid);
+            if toward_b {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+    }
+    out
+}
+
+/// Rays from the points of a segment, their candidate faces gathered once, hit what the tree's
+/// farthest hit does, to the bit: on a non-convex closed surface with random segments (edge
+/// sized and long), directions (some along an axis, some along the segment) and a hittable
+/// mask, and on a grid whose rays run down its edges and through its vertices.
+#[test]
+fn segment_rays_match_the_tree() {
+    let mesh = bumpy_sphere();
+    let index = MeshIndex::new(&mesh.0, &mesh.1).expect("mesh");
+    let posed = index.pose(&mesh.0).expect("pose");
+    let mut rng = Rng(7);
+    let hittable: Vec<bool> = (0..mesh.1.len()).map(|f| f % 5 != 0).collect();
+    let (mut hits, mut compared) = (0, 0);
+    for case in 0..400 {
+        let a = Point3::from(rng.unit() * rng.range(0.0, 1.6));
+        let length = if case % 2 == 0 { 0.05 } else { 1.0 };
+        let b = a + rng.unit() * length;
+        let dir = match case % 4 {
+            0 => Vector3::x(),
+            1 => (b - a).normalize(),
+            _ => rng.unit(),
+        };
+        let max_t = rng.range(0.2, 4.0);
+        let mask = (case % 3 == 0).then_some(&hittable[..]);
+        let rays = SegmentRays::new(&posed, mask, [a, b], dir, max_t);
+        for o in points_along(a, b, &mut rng) {
+            let tree = farthest_hit_among(&posed, &Ray::new(o, dir, max_t), mask);
+            assert_eq!(rays.farthest_hit(o), tree, "case {case}, origin {o:?}");
+            hits += tree.is_some() as usize;
+            compared += 1;
+        }
+    }
+    assert!(hits > compared / 4, "{hits} hits of {compared}");
+    // Rays straight down onto a grid, from segments over its edges and vertices.
+    let flat = flat_grid(0.0, 1.0, 8);
+    let index = MeshIndex::new(&flat.0, &flat.1).expect("grid");
+    let posed = index.pose(&flat.0).expect("pose");
+    let down = -Vector3::z();
+    for (a, b) in [
+        ((-1.0, 0.25), (1.0, 0.25)),
+        ((0.0, -1.0), (0.0, 1.0)),
+        ((-1.0, -1.0), (1.0, 1.0)),
+    ] {
+        let (a, b) = (Point3::new(a.0, a.1, 1.0), Point3::new(b.0, b.1, 1.0));
+        let rays = SegmentRays::new(&posed, None, [a, b], down, 1.0);
+        for o in points_along(a, b, &mut rng) {
+            let tree = farthest_hit(&posed, &Ray::new(o, down, 1.0));
+            assert_eq!(rays.farthest_hit(o), tree, "grid, origin {o:?}");
+        }
+        assert!(
+            rays.farthest_hit(a).is_some(),
+            "the ray from {a:?} ends on the grid"
+        );
     }
 }
 

@@ -12,7 +12,10 @@
 //! of `δ·n'` over both projected mapping regions, clipped exactly at their boundary points, so
 //! it moves continuously as vertices enter or leave the regions.
 
-use super::mapping::{interpolated_normal, map_point, Mapping, MappingRegion, SideFrame};
+use super::mapping::{
+    interpolated_normal, map_point, mapping_of, Mapping, MappingRegion, SideFrame,
+};
+use crate::intersect::SegmentRays;
 use nalgebra::{Point3, Vector3};
 use std::collections::HashMap;
 
@@ -273,15 +276,21 @@ impl SideInput<'_, '_, '_> {
             target: pi,
             target_normal: Vector3::zeros(),
         });
+        // Every step's ray starts on the edge: its candidate faces gathered once.
+        let rays = SegmentRays::new(
+            self.other.mesh,
+            self.other.hittable,
+            [pi, pj],
+            self.frame.cast,
+            self.reach,
+        );
         let (mut lo, mut hi) = (0.0, 1.0);
         for _ in 0..BISECTION_STEPS {
             let mid = 0.5 * (lo + hi);
-            match map_point(
-                self.other,
-                &(pi + (pj - pi) * mid),
-                &self.frame.cast,
-                self.reach,
-            ) {
+            match rays
+                .farthest_hit(pi + (pj - pi) * mid)
+                .map(|h| mapping_of(self.other, &h))
+            {
                 Some(m) => {
                     lo = mid;
                     last = m;

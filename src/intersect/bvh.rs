@@ -551,6 +551,38 @@ impl TriangleBvh {
         }
     }
 
+    /// Visits `(face, box)` for every leaf slot whose stored box passes `keep` (the box a ray
+    /// cast tests, [`TriangleBvh::farthest_along`]), in tree order, descending only into the
+    /// nodes whose box passes: `keep` must pass a box whenever it passes a box inside it (a
+    /// conservative overlap test). Masked slots have empty boxes, which an overlap test fails.
+    pub(crate) fn slots_where(
+        &self,
+        keep: impl Fn(&Aabb) -> bool,
+        mut visit: impl FnMut(u32, Aabb),
+    ) {
+        if self.nodes.is_empty() || !keep(&self.nodes[0].aabb) {
+            return;
+        }
+        let mut stack: Vec<u32> = vec![0];
+        while let Some(i) = stack.pop() {
+            let n = &self.nodes[i as usize];
+            if n.count > 0 {
+                for slot in n.first as usize..(n.first + n.count) as usize {
+                    let b = self.stored_box(slot, n);
+                    if keep(&b) {
+                        visit(self.faces[slot], b);
+                    }
+                }
+                continue;
+            }
+            for c in [n.first + 1, n.first] {
+                if keep(&self.nodes[c as usize].aabb) {
+                    stack.push(c);
+                }
+            }
+        }
+    }
+
     /// Visits the faces whose box the ray `origin + t dir`, `t ∈ [0, max_t]`, may cross, nodes
     /// with the largest exit parameter first. `test(face, [t0, t1])` gets the parameter
     /// interval of the ray inside the face's box and returns the hit parameter clamped to it,
@@ -568,11 +600,7 @@ impl TriangleBvh {
             return;
         }
         let inv = dir.map(|d| 1.0 / d);
-        let reach = |b: &Aabb| {
-            b.ray_interval(origin, &inv)
-                .filter(|&(t0, t1)| t1 >= 0.0 && t0 <= max_t)
-                .map(|(t0, t1)| [t0.max(0.0), t1.min(max_t)])
-        };
+        let reach = |b: &Aabb| ray_reach(b, origin, &inv, max_t);
         let mut best = f64::NEG_INFINITY;
         let mut stack: Vec<(u32, f64)> = Vec::with_capacity(64);
         if let Some([_, t1]) = reach(&self.nodes[0].aabb) {
@@ -603,6 +631,21 @@ impl TriangleBvh {
             stack.extend(kids.iter().filter_map(|&(c, t)| t.map(|t| (c, t))));
         }
     }
+}
+
+/// The parameter interval of the ray `origin + t dir` (`inv_dir` its componentwise inverse)
+/// inside box `b`, clipped to `[0, max_t]`: what [`TriangleBvh::farthest_along`] reaches of a
+/// node or a face's box.
+#[inline]
+pub(crate) fn ray_reach(
+    b: &Aabb,
+    origin: &Point3<f64>,
+    inv_dir: &Vector3<f64>,
+    max_t: f64,
+) -> Option<[f64; 2]> {
+    b.ray_interval(origin, inv_dir)
+        .filter(|&(t0, t1)| t1 >= 0.0 && t0 <= max_t)
+        .map(|(t0, t1)| [t0.max(0.0), t1.min(max_t)])
 }
 
 /// Per leaf node of a [`TriangleBvh`], the distinct corners of its live faces (compressed rows:

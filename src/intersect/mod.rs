@@ -56,7 +56,9 @@ pub use mesh_mesh::{
     intersect_meshes, intersect_parts, EdgeHit, IntersectionSegment, IntersectionStats,
     Intersections, Side,
 };
-pub use rays::{farthest_hit, farthest_hit_among, farthest_hits, farthest_hits_among, Ray, RayHit};
+pub use rays::{
+    farthest_hit, farthest_hit_among, farthest_hits, farthest_hits_among, Ray, RayHit, SegmentRays,
+};
 pub use regions::{
     CutFace, IntersectionRegion, QuadraturePoint, QuadratureRule, RegionStats, SubTriangle,
 };

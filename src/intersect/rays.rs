@@ -7,6 +7,7 @@
 //! beat the best hit so far are skipped. Crossing decisions are exact (closed triangles, so a
 //! ray through an edge or a vertex never slips between faces).
 
+use super::bvh::{ray_reach, Aabb};
 use super::index::PosedMesh;
 use super::mesh_mesh::barycentric;
 use super::predicates::orient3d;
@@ -88,6 +89,124 @@ pub fn farthest_hit_among(
             Some(hit.t)
         });
     best
+}
+
+/// Rays of one direction and reach whose origins lie on one segment `a -> b` (the bisection
+/// of a mapping region's boundary along an edge, 2021 Sec. 4.2): the faces whose box the
+/// ribbon they sweep may cross are gathered from the tree once, and each ray tests only them.
+/// [`SegmentRays::farthest_hit`] gives [`farthest_hit_among`]'s hit to the bit: that hit is the
+/// farthest over every hittable face whose box the ray reaches, whatever visits them (a face
+/// skipped by the tree's pruning could not beat it), and every such face is a candidate (the
+/// ribbon test is conservative, widened for the rounding of the origins and of the boxes'
+/// slab test). An origin off the segment's box falls back to the tree.
+pub struct SegmentRays<'m, 'a> {
+    mesh: &'m PosedMesh<'a>,
+    hittable: Option<&'m [bool]>,
+    dir: Vector3<f64>,
+    max_t: f64,
+    /// Candidate faces with the box a ray cast tests for each.
+    candidates: Vec<(u32, Aabb)>,
+    /// The segment's box, widened by the margin: where an origin may lie.
+    origins: Aabb,
+}
+
+impl<'m, 'a> SegmentRays<'m, 'a> {
+    /// The candidates for rays `o + t dir`, `t ∈ [0, max_t]`, from the points `o` of segment
+    /// `a -> b`, on `mesh`'s faces `f` with `hittable[f]` (all for `None`).
+    pub fn new(
+        mesh: &'m PosedMesh<'a>,
+        hittable: Option<&'m [bool]>,
+        [a, b]: [Point3<f64>; 2],
+        dir: Vector3<f64>,
+        max_t: f64,
+    ) -> Self {
+        let mut out = Self {
+            mesh,
+            hittable,
+            dir,
+            max_t,
+            candidates: Vec::new(),
+            origins: Aabb::EMPTY,
+        };
+        let reach = dir * max_t;
+        let corners = [a, b, a + reach, b + reach];
+        if !Ray::new(a, dir, max_t).is_valid()
+            || !corners.iter().all(|c| c.iter().all(|x| x.is_finite()))
+        {
+            return out; // Every ray falls back to the tree.
+        }
+        // Margin: far above the rounding of an origin on the segment and of the slab test's
+        // widening (relative to the coordinates and the reach).
+        let scale = corners
+            .iter()
+            .flat_map(|c| c.iter().map(|x| x.abs()))
+            .fold(0.0, f64::max);
+        let margin = 1e-9 * scale;
+        let widen = |bx: Aabb| Aabb {
+            min: bx.min - Vector3::repeat(margin),
+            max: bx.max + Vector3::repeat(margin),
+        };
+        out.origins = widen(Aabb::of_triangle([&a, &b, &b]));
+        let ribbon = widen(corners.iter().fold(Aabb::EMPTY, |acc, c| {
+            acc.union(&Aabb::of_triangle([c, c, c]))
+        }));
+        // The ribbon's plane (through `a`, spanned by the segment and the direction), when
+        // they are far from parallel: else the rounding of the cross product tilts it.
+        let normal = (b - a).cross(&dir);
+        let plane = normal.iter().all(|x| x.is_finite())
+            && normal.norm() >= 1e-4 * (b - a).norm() * dir.norm();
+        let keep = |bx: &Aabb| {
+            if !bx.overlaps(&ribbon) {
+                return false;
+            }
+            if !plane {
+                return true;
+            }
+            let center = nalgebra::center(&bx.min, &bx.max);
+            let half = (bx.max - bx.min) * 0.5;
+            let spread: f64 = (0..3).map(|k| normal[k].abs() * (half[k] + margin)).sum();
+            normal.dot(&(center - a)).abs() <= spread
+        };
+        let candidates = &mut out.candidates;
+        mesh.bvh().slots_where(keep, |f, bx| {
+            if hittable.is_none_or(|m| m.get(f as usize).copied().unwrap_or(false)) {
+                candidates.push((f, bx));
+            }
+        });
+        out
+    }
+
+    /// The farthest hit of the ray from `origin` (a point of the segment): [`farthest_hit_among`]'s.
+    pub fn farthest_hit(&self, origin: Point3<f64>) -> Option<RayHit> {
+        let ray = Ray::new(origin, self.dir, self.max_t);
+        if !ray.is_valid() {
+            return None;
+        }
+        if self.origins.is_empty() || !self.origins.overlaps(&Aabb::of_triangle([&origin; 3])) {
+            return farthest_hit_among(self.mesh, &ray, self.hittable);
+        }
+        let end = ray.origin + ray.dir * ray.max_t;
+        let inv = ray.dir.map(|d| 1.0 / d);
+        let mut best: Option<RayHit> = None;
+        let mut best_t = f64::NEG_INFINITY;
+        for (f, bx) in &self.candidates {
+            let Some(range) = ray_reach(bx, &origin, &inv, ray.max_t).filter(|r| r[1] >= best_t)
+            else {
+                continue;
+            };
+            let Some(hit) = segment_hit(self.mesh, *f, &ray, &end, range) else {
+                continue;
+            };
+            let better = best
+                .as_ref()
+                .is_none_or(|b| hit.t > b.t || (hit.t == b.t && hit.face < b.face));
+            if better {
+                best = Some(hit);
+            }
+            best_t = best_t.max(hit.t);
+        }
+        best
+    }
 }
 
 /// [`farthest_hit`] for many rays, in parallel; the output follows the input order.
