@@ -21,6 +21,8 @@
 //! abscissae are non-decreasing because `cos θ ≥ 0`), and `f2 = A(t) + N_2(t) y2` is affine in
 //! the bulge ordinate.
 
+use std::sync::LazyLock;
+
 /// Clamped uniform knot vector of the cubic B-spline (2021 App. B line 50).
 const KNOTS: [f64; 10] = [0.0, 0.0, 0.0, 0.0, 1.0 / 3.0, 2.0 / 3.0, 1.0, 1.0, 1.0, 1.0];
 
@@ -93,11 +95,19 @@ pub fn basis(t: f64) -> [f64; 6] {
 /// `t` is clamped to `[0, 1]` (NaN → 1). They sum to 0.
 pub fn basis_derivative(t: f64) -> [f64; 6] {
     let (quadratic, _) = basis_degrees_2_3(clamp_unit(t, 1.0));
+    derivative_from_quadratic(&quadratic)
+}
+
+/// [`basis_derivative`] from the degree-2 basis at the same `t`.
+fn derivative_from_quadratic(quadratic: &[f64; 7]) -> [f64; 6] {
     std::array::from_fn(|k| {
         3.0 * (ratio(quadratic[k], KNOTS[k + 3] - KNOTS[k])
             - ratio(quadratic[k + 1], KNOTS[k + 4] - KNOTS[k + 1]))
     })
 }
+
+/// [`basis`] at the span breaks [`BREAKS`], the same for every profile: computed once.
+static BREAK_BASIS: LazyLock<[[f64; 6]; 4]> = LazyLock::new(|| BREAKS.map(basis));
 
 /// `N_2³(t)`, the basis function of the bulge control point `v2`: the factor of the bulge
 /// ordinate in `f2` (2021 Sec. 5.3 and App. B line 59; `PIPELINE.md` "Exact volume":
@@ -198,7 +208,7 @@ impl Profile {
     /// [`Profile::parameter_at`] together with the number of Newton/bisection iterations.
     pub fn invert_abscissa(&self, u: f64) -> (f64, u32) {
         let u = clamp_unit(u, 1.0);
-        let ends = BREAKS.map(|t| self.abscissa(t));
+        let ends = BREAK_BASIS.map(|b| combine(&b, &self.abscissae));
         if u <= ends[0] {
             return (0.0, 0);
         }
@@ -215,7 +225,10 @@ impl Profile {
         let [mut lo, mut hi] = span;
         let mut t = self.initial_guess(u, span, values);
         for iteration in 1..=MAX_INVERSE_ITERATIONS {
-            let residual = self.abscissa(t) - u;
+            // `f1(t)` and `f1'(t)` from one evaluation of the basis (as `abscissa` and
+            // `abscissa_derivative` each make it).
+            let (quadratic, cubic) = basis_degrees_2_3(clamp_unit(t, 1.0));
+            let residual = combine(&cubic, &self.abscissae) - u;
             if residual.abs() <= INVERSE_TOLERANCE * u {
                 return (t, iteration);
             }
@@ -224,7 +237,8 @@ impl Profile {
             } else {
                 hi = t;
             }
-            let step = t - residual / self.abscissa_derivative(t);
+            let slope = combine(&derivative_from_quadratic(&quadratic), &self.abscissae);
+            let step = t - residual / slope;
             t = if step > lo && step < hi {
                 step
             } else {
