@@ -8,16 +8,17 @@
 //! the thread count.
 
 use crate::contact::{
-    resolve_pair, Contact, ContactError, ContactSide, DirectionMode, PairParams, SideFrame,
+    resolve_pair_lazily, Contact, ContactError, ContactSide, DirectionMode, PairParams,
 };
 use crate::deform::{
     deform_region, DeformError, DeformParams, RegionDeformation, RegionFrame, WorkingRegion,
 };
-use crate::intersect::{IntersectError, MeshIndex};
+use crate::intersect::{Aabb, IntersectError, MeshIndex, PosedMesh};
 use crate::mesh::operators::{mean_edge_length, vertex_normals, NormalWeighting};
 use crate::solve::SolveError;
 use nalgebra::{Point3, Vector3};
 use rayon::prelude::*;
+use std::sync::OnceLock;
 use std::time::Instant;
 
 /// A body at rest: welded positions and triangles.
@@ -488,14 +489,21 @@ impl ContactPass {
     fn run_once(&self, positions: &[Vec<Point3<f64>>], time: f64) -> Result<PassOutput, PassError> {
         let wall = Instant::now();
         self.check_counts(positions)?;
-        let posed = self.posed(positions)?;
-        let pairs = self.candidate_pairs(&posed);
-        let normals = self.paired_normals(positions, &pairs);
+        let boxes = self.boxes(positions)?;
+        let pairs = self.candidate_pairs(&boxes);
+        let posed = self.posed(positions, &pairs)?;
         let mut timings = StageTimings {
             setup: wall.elapsed().as_secs_f64(),
             ..Default::default()
         };
+        // Each body's normals made at its first contact (none in a frame without one).
+        let normals: Vec<OnceLock<Vec<Vector3<f64>>>> =
+            positions.iter().map(|_| OnceLock::new()).collect();
         let contacts = self.contacts(positions, &normals, &posed, &pairs, time)?;
+        let normals: Vec<Vec<Vector3<f64>>> = normals
+            .into_iter()
+            .map(|n| n.into_inner().unwrap_or_default())
+            .collect();
         for c in &contacts {
             timings.intersection += c.contact.timings.intersection;
             timings.mapping += c.contact.timings.mapping;
@@ -519,15 +527,13 @@ impl ContactPass {
         Ok(out)
     }
 
-    /// Whether body `b`, as posed, is at least [`COLLAPSED`] times its rest bounding-box diagonal.
-    fn in_size(&self, b: usize, posed: &crate::intersect::PosedMesh) -> bool {
+    /// Whether body `b`, its box `posed` at its positions, is at least [`COLLAPSED`] times its
+    /// rest bounding-box diagonal.
+    fn in_size(&self, b: usize, posed: Option<&Aabb>) -> bool {
         let Some(rest) = self.bodies.get(b).map(|body| body.rest_diagonal) else {
             return false;
         };
-        posed
-            .bvh()
-            .root_box()
-            .is_some_and(|x| (x.max - x.min).norm() >= COLLAPSED * rest)
+        posed.is_some_and(|x| (x.max - x.min).norm() >= COLLAPSED * rest)
     }
 
     /// One position set per body, each with the body's vertex count.
@@ -553,13 +559,10 @@ impl ContactPass {
         Ok(())
     }
 
-    /// Every body posed (its tree refit at its positions), or none when there are fewer than
-    /// two bodies: no pair to find, the positions only checked (a single-body rig's frame
-    /// paid a tree and the normals here for nothing, four times its skinning).
-    fn posed<'a>(
-        &'a self,
-        positions: &'a [Vec<Point3<f64>>],
-    ) -> Result<Vec<crate::intersect::PosedMesh<'a>>, PassError> {
+    /// Every body's box at its positions (checked as a refit checks them), or none when there
+    /// are fewer than two bodies: no pair to find, the positions only checked (a single-body
+    /// rig's frame paid a tree and the normals here for nothing, four times its skinning).
+    fn boxes(&self, positions: &[Vec<Point3<f64>>]) -> Result<Vec<Option<Aabb>>, PassError> {
         let bodies = positions.iter().zip(&self.bodies).enumerate();
         if self.bodies.len() < 2 {
             for (body, (p, b)) in bodies {
@@ -570,40 +573,45 @@ impl ContactPass {
         bodies
             .map(|(body, (p, b))| {
                 b.index
-                    .pose(p)
+                    .bounding_box(p)
                     .map_err(|source| PassError::Intersect { body, source })
             })
             .collect()
     }
 
-    /// The body pairs to resolve: both in size, their boxes overlapping.
-    fn candidate_pairs(&self, posed: &[crate::intersect::PosedMesh]) -> Vec<(usize, usize)> {
-        let sized: Vec<bool> = (0..posed.len())
-            .map(|b| self.in_size(b, &posed[b]))
-            .collect();
-        (0..posed.len())
-            .flat_map(|a| (a + 1..posed.len()).map(move |b| (a, b)))
-            .filter(|&(a, b)| sized[a] && sized[b])
-            .filter(|&(a, b)| boxes_overlap(&posed[a], &posed[b]))
-            .collect()
-    }
-
-    /// Area-weighted vertex normals of the bodies in a pair (empty for the others, which no
-    /// contact and no deformation reads).
-    fn paired_normals(
-        &self,
-        positions: &[Vec<Point3<f64>>],
+    /// The bodies of the candidate `pairs` posed (their trees refit at their positions), the
+    /// others not (`None`): a frame whose bodies' boxes do not meet refits no tree.
+    fn posed<'a>(
+        &'a self,
+        positions: &'a [Vec<Point3<f64>>],
         pairs: &[(usize, usize)],
-    ) -> Vec<Vec<Vector3<f64>>> {
+    ) -> Result<Vec<Option<PosedMesh<'a>>>, PassError> {
         let paired = |b: usize| pairs.iter().any(|&(x, y)| x == b || y == b);
         positions
-            .par_iter()
+            .iter()
             .zip(&self.bodies)
             .enumerate()
             .map(|(body, (p, b))| match paired(body) {
-                true => vertex_normals(p, &b.triangles, NormalWeighting::Area),
-                false => Vec::new(),
+                true => (b.index.pose(p).map(Some))
+                    .map_err(|source| PassError::Intersect { body, source }),
+                false => Ok(None),
             })
+            .collect()
+    }
+
+    /// The body pairs to resolve: both in size, their boxes overlapping.
+    fn candidate_pairs(&self, boxes: &[Option<Aabb>]) -> Vec<(usize, usize)> {
+        let sized: Vec<bool> = (0..boxes.len())
+            .map(|b| self.in_size(b, boxes[b].as_ref()))
+            .collect();
+        let overlap = |a: usize, b: usize| match (&boxes[a], &boxes[b]) {
+            (Some(x), Some(y)) => x.overlaps(y),
+            _ => false,
+        };
+        (0..boxes.len())
+            .flat_map(|a| (a + 1..boxes.len()).map(move |b| (a, b)))
+            .filter(|&(a, b)| sized[a] && sized[b])
+            .filter(|&(a, b)| overlap(a, b))
             .collect()
     }
 
@@ -611,11 +619,21 @@ impl ContactPass {
     fn contacts(
         &self,
         positions: &[Vec<Point3<f64>>],
-        normals: &[Vec<Vector3<f64>>],
-        posed: &[crate::intersect::PosedMesh],
+        normals: &[OnceLock<Vec<Vector3<f64>>>],
+        posed: &[Option<PosedMesh>],
         pairs: &[(usize, usize)],
         time: f64,
     ) -> Result<Vec<ContactSummary>, PassError> {
+        // Area-weighted vertex normals of body `k`, made once, when a contact first needs them.
+        let normals_of = |k: usize| -> &[Vector3<f64>] {
+            normals[k].get_or_init(|| {
+                vertex_normals(
+                    &positions[k],
+                    &self.bodies[k].triangles,
+                    NormalWeighting::Area,
+                )
+            })
+        };
         let found = pairs
             .par_iter()
             .map(|&(a, b)| {
@@ -627,19 +645,22 @@ impl ContactPass {
                 } else {
                     (a, b)
                 };
-                let side = |k: usize| SideFrame {
-                    mesh: &posed[k],
-                    normals: &normals[k],
-                    hittable: None,
+                let (Some(pa), Some(pb)) = (&posed[a], &posed[b]) else {
+                    return Ok(None); // Not a candidate pair (every pair's bodies are posed).
                 };
-                resolve_pair(side(a), side(b), &self.pair_params(a, b, time))
-                    .map(|c| {
-                        c.map(|contact| ContactSummary {
-                            bodies: [a, b],
-                            contact,
-                        })
+                let bodies = [a, b];
+                resolve_pair_lazily(
+                    [pa, pb],
+                    |k| normals_of(bodies[k]),
+                    &self.pair_params(a, b, time),
+                )
+                .map(|c| {
+                    c.map(|contact| ContactSummary {
+                        bodies: [a, b],
+                        contact,
                     })
-                    .map_err(|source| PassError::Contact { a, b, source })
+                })
+                .map_err(|source| PassError::Contact { a, b, source })
             })
             .collect::<Result<Vec<_>, _>>()?;
         Ok(found.into_iter().flatten().collect())
@@ -699,11 +720,4 @@ fn canonical_key(positions: &[Point3<f64>]) -> (usize, Vec<[u64; 3]>) {
         .map(|p| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()])
         .collect();
     (positions.len(), head)
-}
-
-fn boxes_overlap(a: &crate::intersect::PosedMesh, b: &crate::intersect::PosedMesh) -> bool {
-    match (a.bvh().root_box(), b.bvh().root_box()) {
-        (Some(x), Some(y)) => x.overlaps(&y),
-        _ => false,
-    }
 }

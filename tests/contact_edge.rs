@@ -225,3 +225,50 @@ fn extruded_contours_extend_the_mapping_region_in_deep_contact() {
         .sum::<usize>();
     assert_eq!(nan, 0);
 }
+
+/// The contact pass makes a body's normals only for a contact: `resolve_pair_lazily` asks for
+/// none when two surfaces' boxes overlap without an intersection, one per side when they
+/// meet, and then finds what `resolve_pair` finds with the same normals.
+#[test]
+fn normals_are_made_only_for_a_contact() {
+    use contact_skin::contact::{resolve_pair, resolve_pair_lazily, PairParams, SideFrame};
+    use contact_skin::intersect::MeshIndex;
+    use contact_skin::mesh::operators::{vertex_normals, NormalWeighting};
+    use std::cell::Cell;
+    let s = icosphere(3);
+    let a = moved(&s, 1.0, Vector3::zeros());
+    let index = MeshIndex::new(&a, &s.triangles).expect("index");
+    let params = PairParams::default();
+    // Apart along the diagonal (boxes overlapping), then sunk into each other.
+    for (offset, meets) in [(1.3, false), (0.9, true)] {
+        let b = moved(&s, 0.6, Vector3::repeat(offset));
+        let posed = [index.pose(&a).expect("a"), index.pose(&b).expect("b")];
+        let normals = [&a, &b].map(|p| vertex_normals(p, &s.triangles, NormalWeighting::Area));
+        let asked = Cell::new(0);
+        let lazily = resolve_pair_lazily(
+            [&posed[0], &posed[1]],
+            |k| {
+                asked.set(asked.get() + 1);
+                &normals[k]
+            },
+            &params,
+        )
+        .expect("resolves");
+        let side = |k: usize| SideFrame {
+            mesh: &posed[k],
+            normals: &normals[k],
+            hittable: None,
+        };
+        let eager = resolve_pair(side(0), side(1), &params).expect("resolves");
+        assert_eq!(lazily.is_some(), meets, "offset {offset}");
+        assert_eq!(asked.get(), if meets { 2 } else { 0 }, "offset {offset}");
+        // The same contact but for its timings.
+        let untimed = |c: Option<contact_skin::contact::Contact>| {
+            c.map(|mut c| {
+                c.timings = Default::default();
+                format!("{c:?}")
+            })
+        };
+        assert!(untimed(lazily) == untimed(eager), "offset {offset}");
+    }
+}

@@ -767,6 +767,49 @@ fn segment_rays_match_the_tree() {
     }
 }
 
+/// A body's box without a refit is the refit tree's root box to the bit, over the faces the
+/// index holds (not the other vertices), and refuses the positions a refit refuses.
+#[test]
+fn bounding_box_is_the_refit_root_box() {
+    let mesh = bumpy_sphere();
+    let mut rng = Rng(3);
+    // The faces of one side: the other side's vertices, unused, lie beyond their box.
+    let half: Vec<u32> = (0..mesh.1.len() as u32)
+        .filter(|&f| {
+            mesh.1[f as usize]
+                .iter()
+                .all(|&v| mesh.0[v as usize].x > 0.2)
+        })
+        .collect();
+    for faces in [None, Some(&half)] {
+        let index = match faces {
+            None => MeshIndex::new(&mesh.0, &mesh.1),
+            Some(f) => MeshIndex::with_faces(&mesh.0, &mesh.1, f),
+        }
+        .expect("index");
+        for _ in 0..5 {
+            let moved: Vec<Point3<f64>> = mesh
+                .0
+                .iter()
+                .map(|p| p + rng.unit() * 0.1 + Vector3::new(3.0, -1.0, 0.5))
+                .collect();
+            let root = index.pose(&moved).expect("pose").bvh().root_box();
+            assert_eq!(index.bounding_box(&moved).expect("box"), root);
+            let all = moved.iter().fold(f64::INFINITY, |m, p| m.min(p.x));
+            let lowest = root.expect("faces").min.x;
+            assert_eq!(
+                faces.is_some(),
+                lowest > all + 0.1,
+                "{lowest} against {all}"
+            );
+        }
+        let mut bad = mesh.0.clone();
+        bad[7].y = f64::NAN;
+        assert!(index.bounding_box(&bad).is_err() && index.pose(&bad).is_err());
+        assert!(index.bounding_box(&mesh.0[1..]).is_err());
+    }
+}
+
 // ---------------------------------------------------------------------------------------------
 // (e): silhouettes
 // ---------------------------------------------------------------------------------------------

@@ -182,26 +182,74 @@ enum Surfaces<'w> {
     PartsOfOneMesh(Option<&'w InsideTwice<'w>>),
 }
 
+/// [`resolve_pair`] with the sides' vertex normals made only when the surfaces meet:
+/// `normals(k)` (side `k`, 0 or 1) is called once per side after the intersection test finds
+/// a contact, never in a frame without one (where the normals, which only Sections 4.2 to 5
+/// read, would cost more than the test). The same contact as [`resolve_pair`] with those
+/// normals; their time counts in the intersection's.
+pub fn resolve_pair_lazily<'m, 'a>(
+    meshes: [&'m PosedMesh<'a>; 2],
+    normals: impl Fn(usize) -> &'m [Vector3<f64>],
+    params: &PairParams,
+) -> Result<Option<Contact>, ContactError> {
+    let start = Instant::now();
+    let ints = Intersections::between(meshes[0], meshes[1]);
+    if !meet(&ints, meshes) {
+        return Ok(None);
+    }
+    let [a, b] = [0, 1].map(|k| SideFrame {
+        mesh: meshes[k],
+        normals: normals(k),
+        hittable: None,
+    });
+    check_normals(&a, &b)?;
+    resolve_intersecting(a, b, ints, start, params, Surfaces::Separate)
+}
+
+/// One normal per vertex on each side.
+fn check_normals(a: &SideFrame, b: &SideFrame) -> Result<(), ContactError> {
+    for s in [a, b] {
+        let (expected, got) = (s.mesh.positions().len(), s.normals.len());
+        if expected != got {
+            return Err(ContactError::NormalCount { expected, got });
+        }
+    }
+    Ok(())
+}
+
+/// Whether the intersection curves amount to a contact (longer than a touch).
+fn meet(ints: &Intersections, meshes: [&PosedMesh; 2]) -> bool {
+    !ints.is_empty() && curve_length(ints) > TOUCH_TOLERANCE * reach_of(meshes[0], meshes[1])
+}
+
 fn resolve(
     a: SideFrame,
     b: SideFrame,
     params: &PairParams,
     surfaces: Surfaces,
 ) -> Result<Option<Contact>, ContactError> {
-    for s in [&a, &b] {
-        let (expected, got) = (s.mesh.positions().len(), s.normals.len());
-        if expected != got {
-            return Err(ContactError::NormalCount { expected, got });
-        }
-    }
+    check_normals(&a, &b)?;
     let start = Instant::now();
     let ints = match surfaces {
         Surfaces::PartsOfOneMesh(_) => Intersections::self_contact(a.mesh, b.mesh)?,
         Surfaces::Separate => Intersections::between(a.mesh, b.mesh),
     };
-    if ints.is_empty() || curve_length(&ints) <= TOUCH_TOLERANCE * reach_of(a.mesh, b.mesh) {
+    if !meet(&ints, [a.mesh, b.mesh]) {
         return Ok(None);
     }
+    resolve_intersecting(a, b, ints, start, params, surfaces)
+}
+
+/// Sections 4.1 to 4.4 on two sides whose intersection `ints` is a contact (its test started
+/// at `start`).
+fn resolve_intersecting(
+    a: SideFrame,
+    b: SideFrame,
+    ints: Intersections,
+    start: Instant,
+    params: &PairParams,
+    surfaces: Surfaces,
+) -> Result<Option<Contact>, ContactError> {
     let mut regions = [
         IntersectionRegion::inside(&ints, Side::A, a.mesh)?,
         IntersectionRegion::inside(&ints, Side::B, b.mesh)?,
@@ -275,6 +323,17 @@ fn resolve(
             zones: t_zone - t_map,
         },
     }))
+}
+
+/// The intersection points of a side's edges, by edge then `t` (not in the map's order,
+/// which changes from run to run).
+fn sorted_crossings(hits: &zones::EdgeHits) -> Vec<([u32; 2], f64)> {
+    let mut out: Vec<([u32; 2], f64)> = hits
+        .iter()
+        .flat_map(|(e, list)| list.iter().map(move |(t, _)| (*e, *t)))
+        .collect();
+    out.sort_unstable_by(|x, y| x.0.cmp(&y.0).then(x.1.total_cmp(&y.1)));
+    out
 }
 
 /// Two parts of one mesh (Sec. 6): the intersection regions `I_l` completed by the
@@ -373,10 +432,7 @@ fn contact_zones(
         zone,
         mapping: mapped[k].stats,
         bisected_boundaries: own.bisected,
-        crossings: hits[k]
-            .iter()
-            .flat_map(|(e, list)| list.iter().map(move |(t, _)| (*e, *t)))
-            .collect(),
+        crossings: sorted_crossings(&hits[k]),
     };
     let ([s0, s1], [z0, z1]) = (samples, zones);
     ZonedSides {

@@ -69,7 +69,7 @@ impl Aabb {
 
     /// The box grown to hold `p`.
     #[inline]
-    fn grown(&self, p: &Point3<f64>) -> Aabb {
+    pub(crate) fn grown(&self, p: &Point3<f64>) -> Aabb {
         Aabb {
             min: Point3::from(std::array::from_fn(|i| lower(self.min[i], p[i]))),
             max: Point3::from(std::array::from_fn(|i| upper(self.max[i], p[i]))),

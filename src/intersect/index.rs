@@ -1,7 +1,7 @@
 //! Pose-independent data of one surface (its faces, edges, a BVH built on a reference pose) and
 //! its per-frame counterpart.
 
-use super::bvh::{FaceSets, LeafCorners, TriangleBvh};
+use super::bvh::{Aabb, FaceSets, LeafCorners, TriangleBvh};
 use super::IntersectError;
 use nalgebra::Point3;
 use std::borrow::Cow;
@@ -186,6 +186,19 @@ impl MeshIndex {
             positions,
             bvh: Cow::Owned(self.refit_tree(positions)?),
         })
+    }
+
+    /// The box of the indexed faces at `positions` (checked as for a refit): the root box of
+    /// the tree refit there, to the bit (the extremes of the same corners), without the refit;
+    /// `None` without a face.
+    pub fn bounding_box(&self, positions: &[Point3<f64>]) -> Result<Option<Aabb>, IntersectError> {
+        self.check_frame(positions)?;
+        let b = positions
+            .iter()
+            .zip(&self.used)
+            .filter(|(_, &u)| u)
+            .fold(Aabb::EMPTY, |acc, (p, _)| acc.grown(p));
+        Ok((!b.is_empty()).then_some(b))
     }
 
     /// The BVH refitted to `positions`, to keep and view with [`MeshIndex::posed_with`] while
