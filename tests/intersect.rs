@@ -694,9 +694,10 @@ fn farthest_hit_through_a_shared_edge_and_invalid_rays() {
 }
 
 /// The bisection points of segment `a -> b` (as a boundary bisection visits them, both ways),
-/// its ends, and a point off it.
+/// its ends, and points off it: beyond its end, and beside its middle within its box.
 fn points_along(a: Point3<f64>, b: Point3<f64>, rng: &mut Rng) -> Vec<Point3<f64>> {
-    let mut out = vec![a, b, a + (b - a) * 1.5 + rng.unit() * 0.3];
+    let beside = Point3::new(a.x, b.y, 0.5 * (a.z + b.z));
+    let mut out = vec![a, b, a + (b - a) * 1.5 + rng.unit() * 0.3, beside];
     for toward_b in [true, false] {
         let (mut lo, mut hi) = (0.0, 1.0);
         for _ in 0..16 {

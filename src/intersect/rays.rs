@@ -108,6 +108,9 @@ pub struct SegmentRays<'m, 'a> {
     candidates: Vec<(u32, Aabb)>,
     /// The segment's box, widened by the margin: where an origin may lie.
     origins: Aabb,
+    /// The ribbon's plane, when tested: a point on it, its normal and how far from it (in
+    /// `|normal · (x - point)|`) an origin may lie.
+    plane: Option<(Point3<f64>, Vector3<f64>, f64)>,
 }
 
 impl<'m, 'a> SegmentRays<'m, 'a> {
@@ -127,6 +130,7 @@ impl<'m, 'a> SegmentRays<'m, 'a> {
             max_t,
             candidates: Vec::new(),
             origins: Aabb::EMPTY,
+            plane: None,
         };
         let reach = dir * max_t;
         let corners = [a, b, a + reach, b + reach];
@@ -155,6 +159,10 @@ impl<'m, 'a> SegmentRays<'m, 'a> {
         let normal = (b - a).cross(&dir);
         let plane = normal.iter().all(|x| x.is_finite())
             && normal.norm() >= 1e-4 * (b - a).norm() * dir.norm();
+        // An origin this close to the plane sends a ray the candidates cover (half the
+        // margin: the other half for the ray's drift from a plane whose normal is rounded).
+        let slack = 0.5 * normal.abs().sum() * margin;
+        out.plane = plane.then_some((a, normal, slack));
         let keep = |bx: &Aabb| {
             if !bx.overlaps(&ribbon) {
                 return false;
@@ -176,13 +184,14 @@ impl<'m, 'a> SegmentRays<'m, 'a> {
         out
     }
 
-    /// The farthest hit of the ray from `origin` (a point of the segment): [`farthest_hit_among`]'s.
+    /// The farthest hit of the ray from `origin` (a point of the segment, up to rounding; any
+    /// other point is cast on the tree): [`farthest_hit_among`]'s.
     pub fn farthest_hit(&self, origin: Point3<f64>) -> Option<RayHit> {
         let ray = Ray::new(origin, self.dir, self.max_t);
         if !ray.is_valid() {
             return None;
         }
-        if self.origins.is_empty() || !self.origins.overlaps(&Aabb::of_triangle([&origin; 3])) {
+        if !self.covers(&origin) {
             return farthest_hit_among(self.mesh, &ray, self.hittable);
         }
         let end = ray.origin + ray.dir * ray.max_t;
@@ -206,6 +215,19 @@ impl<'m, 'a> SegmentRays<'m, 'a> {
             best_t = best_t.max(hit.t);
         }
         best
+    }
+}
+
+impl SegmentRays<'_, '_> {
+    /// Whether the ray from `origin` stays where the candidates were gathered: the origin in
+    /// the segment's box and on the ribbon's plane (both widened by the margin).
+    fn covers(&self, origin: &Point3<f64>) -> bool {
+        let in_box =
+            !self.origins.is_empty() && self.origins.overlaps(&Aabb::of_triangle([origin; 3]));
+        in_box
+            && self
+                .plane
+                .is_none_or(|(point, normal, slack)| normal.dot(&(origin - point)).abs() <= slack)
     }
 }
 
