@@ -595,10 +595,11 @@ fn run_scene(
 
 fn write_obj(dir: &Path, rig: &Rig, frames: &[Frame], header: &str) -> std::io::Result<()> {
     std::fs::create_dir_all(dir)?;
+    let faces = obj::ObjFaces::of(rig);
     frames.par_iter().try_for_each(|f| {
         output::write_atomic(
             &dir.join(obj::frame_file_name(f.index)),
-            obj::frame_to_obj(rig, f, header).as_bytes(),
+            obj::frame_to_obj_with(&faces, f, header).as_bytes(),
         )
     })
 }

@@ -228,6 +228,8 @@ struct Job<'a> {
     contact: Option<&'a ContactRun>,
     animation: Option<usize>,
     header: String,
+    /// The OBJ frames' objects and faces, the same in every frame.
+    faces: obj::ObjFaces,
     pb: ProgressBar,
     /// `--metrics`: the rest mean edge length `h`, the measures' length unit.
     h: Option<f64>,
@@ -305,6 +307,7 @@ pub fn run(a: &Args) -> CliResult {
         contact: contact.as_ref(),
         animation,
         header: header(a, &rig, animation, method, contact.as_ref()),
+        faces: obj::ObjFaces::of(&rig),
         pb: progress(times.len(), a.json),
         h: a.metrics.then(|| measure::rest_edge_length(&rig, &pre)),
     };
@@ -778,7 +781,7 @@ fn write_obj_frames(job: &Job, times: &[f64]) -> Result<Written, BoxError> {
     let frames = all_frames(times, |i, t| {
         let (frame, stats, diagnostics) = compute(job, i, t)?;
         let path = job.args.out.join(obj::frame_file_name(i));
-        let text = obj::frame_to_obj(job.rig, &frame, &job.header);
+        let text = obj::frame_to_obj_with(&job.faces, &frame, &job.header);
         let obj = Staged::write(&path, text.as_bytes())
             .map_err(|e| format!("{}: {e}", path.display()))?;
         job.pb.inc(1);
