@@ -193,10 +193,9 @@ pub fn resolve_pair_lazily<'m, 'a>(
     params: &PairParams,
 ) -> Result<Option<Contact>, ContactError> {
     let start = Instant::now();
-    let ints = Intersections::between(meshes[0], meshes[1]);
-    if !meet(&ints, meshes) {
+    let Some(ints) = contact_curves(meshes, Surfaces::Separate)? else {
         return Ok(None);
-    }
+    };
     let [a, b] = [0, 1].map(|k| SideFrame {
         mesh: meshes[k],
         normals: normals(k),
@@ -217,9 +216,19 @@ fn check_normals(a: &SideFrame, b: &SideFrame) -> Result<(), ContactError> {
     Ok(())
 }
 
-/// Whether the intersection curves amount to a contact (longer than a touch).
-fn meet(ints: &Intersections, meshes: [&PosedMesh; 2]) -> bool {
-    !ints.is_empty() && curve_length(ints) > TOUCH_TOLERANCE * reach_of(meshes[0], meshes[1])
+/// The intersection of the two sides when it amounts to a contact (curves longer than a
+/// touch), else `None`.
+fn contact_curves(
+    meshes: [&PosedMesh; 2],
+    surfaces: Surfaces,
+) -> Result<Option<Intersections>, ContactError> {
+    let ints = match surfaces {
+        Surfaces::PartsOfOneMesh(_) => Intersections::self_contact(meshes[0], meshes[1])?,
+        Surfaces::Separate => Intersections::between(meshes[0], meshes[1]),
+    };
+    let touch = TOUCH_TOLERANCE * reach_of(meshes[0], meshes[1]);
+    let contact = !(ints.is_empty() || curve_length(&ints) <= touch);
+    Ok(contact.then_some(ints))
 }
 
 fn resolve(
@@ -230,13 +239,9 @@ fn resolve(
 ) -> Result<Option<Contact>, ContactError> {
     check_normals(&a, &b)?;
     let start = Instant::now();
-    let ints = match surfaces {
-        Surfaces::PartsOfOneMesh(_) => Intersections::self_contact(a.mesh, b.mesh)?,
-        Surfaces::Separate => Intersections::between(a.mesh, b.mesh),
-    };
-    if !meet(&ints, [a.mesh, b.mesh]) {
+    let Some(ints) = contact_curves([a.mesh, b.mesh], surfaces)? else {
         return Ok(None);
-    }
+    };
     resolve_intersecting(a, b, ints, start, params, surfaces)
 }
 

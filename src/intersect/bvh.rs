@@ -87,6 +87,12 @@ impl Aabb {
             && other.min.z <= self.max.z
     }
 
+    /// Whether `p` lies in the closed box (never in an empty one).
+    #[inline]
+    pub(crate) fn contains(&self, p: &Point3<f64>) -> bool {
+        (0..3).all(|k| self.min[k] <= p[k] && p[k] <= self.max[k])
+    }
+
     /// Whether the box holds no point (e.g. [`Aabb::EMPTY`]).
     #[inline]
     pub fn is_empty(&self) -> bool {

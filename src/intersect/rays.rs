@@ -76,19 +76,31 @@ pub fn farthest_hit_among(
     let mut best: Option<RayHit> = None;
     mesh.bvh()
         .farthest_along(&ray.origin, &ray.dir, ray.max_t, |f, range| {
-            if hittable.is_some_and(|m| !m.get(f as usize).copied().unwrap_or(false)) {
+            if !can_hit(hittable, f) {
                 return None;
             }
             let hit = segment_hit(mesh, f, ray, &end, range)?;
-            let better = best
-                .as_ref()
-                .is_none_or(|b| hit.t > b.t || (hit.t == b.t && hit.face < b.face));
-            if better {
-                best = Some(hit);
-            }
+            keep_farther(&mut best, hit);
             Some(hit.t)
         });
     best
+}
+
+/// Whether face `f` is hittable under the mask (all faces for `None`; a face beyond the mask
+/// is not).
+fn can_hit(hittable: Option<&[bool]>, f: u32) -> bool {
+    hittable.is_none_or(|m| m.get(f as usize).copied().unwrap_or(false))
+}
+
+/// Keeps `hit` in `best` when it is farther, or as far on a smaller face id (the tie rule that
+/// makes the farthest hit independent of the order faces are tested in).
+fn keep_farther(best: &mut Option<RayHit>, hit: RayHit) {
+    if best
+        .as_ref()
+        .is_none_or(|b| hit.t > b.t || (hit.t == b.t && hit.face < b.face))
+    {
+        *best = Some(hit);
+    }
 }
 
 /// Rays of one direction and reach whose origins lie on one segment `a -> b` (the bisection
@@ -150,10 +162,8 @@ impl<'m, 'a> SegmentRays<'m, 'a> {
             min: bx.min - Vector3::repeat(margin),
             max: bx.max + Vector3::repeat(margin),
         };
-        out.origins = widen(Aabb::of_triangle([&a, &b, &b]));
-        let ribbon = widen(corners.iter().fold(Aabb::EMPTY, |acc, c| {
-            acc.union(&Aabb::of_triangle([c, c, c]))
-        }));
+        out.origins = widen(Aabb::EMPTY.grown(&a).grown(&b));
+        let ribbon = widen(corners.iter().fold(Aabb::EMPTY, |acc, c| acc.grown(c)));
         // The ribbon's plane (through `a`, spanned by the segment and the direction), when
         // they are far from parallel: else the rounding of the cross product tilts it.
         let normal = (b - a).cross(&dir);
@@ -177,7 +187,7 @@ impl<'m, 'a> SegmentRays<'m, 'a> {
         };
         let candidates = &mut out.candidates;
         mesh.bvh().slots_where(keep, |f, bx| {
-            if hittable.is_none_or(|m| m.get(f as usize).copied().unwrap_or(false)) {
+            if can_hit(hittable, f) {
                 candidates.push((f, bx));
             }
         });
@@ -206,25 +216,16 @@ impl<'m, 'a> SegmentRays<'m, 'a> {
             let Some(hit) = segment_hit(self.mesh, *f, &ray, &end, range) else {
                 continue;
             };
-            let better = best
-                .as_ref()
-                .is_none_or(|b| hit.t > b.t || (hit.t == b.t && hit.face < b.face));
-            if better {
-                best = Some(hit);
-            }
+            keep_farther(&mut best, hit);
             best_t = best_t.max(hit.t);
         }
         best
     }
-}
 
-impl SegmentRays<'_, '_> {
     /// Whether the ray from `origin` stays where the candidates were gathered: the origin in
     /// the segment's box and on the ribbon's plane (both widened by the margin).
     fn covers(&self, origin: &Point3<f64>) -> bool {
-        let in_box =
-            !self.origins.is_empty() && self.origins.overlaps(&Aabb::of_triangle([origin; 3]));
-        in_box
+        self.origins.contains(origin)
             && self
                 .plane
                 .is_none_or(|(point, normal, slack)| normal.dot(&(origin - point)).abs() <= slack)
