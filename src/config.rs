@@ -7,7 +7,7 @@
 //! stiffness = 1.0                 # pseudo-stiffness k, or "rigid"
 //! tau = 0.0
 //! extent = 0.3                    # φ̄ in scene units; or extent_factor = 0.5 (× rest size)
-//! gamma = 1.0
+//! gamma = 1.0                     # bulge: 0 none, 1 the lost volume, at most 10
 //! omega = 2.0
 //! [[object]]
 //! name = "ball"                   # a body name, or its index (integer or string)
@@ -28,7 +28,7 @@
 //! tau = -1.0                      # the paper's Fig. 13 and 15 (default)
 //! safeguard_angle = 80.0          # degrees, in (0, 90] (default 80, the paper's)
 //! joint_extent = 1.5              # φ̄ × the joint's size (default); or extent / extent_factor
-//! gamma = 1.0
+//! gamma = 1.0                     # bulge: 0 none, 1 the lost volume, at most 10
 //! omega = 2.0
 //! turn_guard = true               # scale the displacement back where a face would turn over
 //! bulge_guard = true              # scale the bulge back where it would enter the other part
@@ -70,6 +70,12 @@ pub const CONFIG_SUFFIX: &str = ".contact.toml";
 
 /// Prefix of a `bulge_map` that names a custom vertex attribute of the glTF file.
 pub const ATTRIBUTE_PREFIX: &str = "attribute:";
+
+/// Largest accepted `gamma` (the bulge's share of the lost volume, Sec. 5.3: 1 restores it).
+/// A larger bulge dwarfs the contact it balances, and its guard's collision tests then grow
+/// with it (a hundred times the volume took 2.6 s per frame on the bending capsule, `-100` did
+/// not finish in two minutes, 2026-12-05): such values are refused rather than run.
+pub const MAX_GAMMA: f64 = 10.0;
 
 /// Largest accepted `passes`.
 pub const MAX_PASSES: usize = 16;
@@ -306,6 +312,50 @@ impl<'de> Deserialize<'de> for SelfDirection {
     }
 }
 
+/// The configuration's fixed-length arrays, read strictly: serde reads an array `[T; N]` as its
+/// first `N` values and `toml` does not complain about the rest, so `objects = [0, 1, "x"]`
+/// was taken as `[0, 1]` and a fourth coordinate of a direction was dropped (until
+/// 2026-12-05). Each is read whole and refused unless it has exactly `N` values.
+mod exact {
+    use super::{de, Deserialize, Deserializer};
+
+    fn sized<T, E: de::Error, const N: usize>(values: Vec<T>) -> Result<[T; N], E> {
+        let len = values.len();
+        values
+            .try_into()
+            .map_err(|_| E::invalid_length(len, &format!("an array of {N} values").as_str()))
+    }
+
+    /// `[T; N]`.
+    pub fn array<'de, D, T, const N: usize>(d: D) -> Result<[T; N], D::Error>
+    where
+        D: Deserializer<'de>,
+        T: Deserialize<'de>,
+    {
+        sized(Vec::deserialize(d)?)
+    }
+
+    /// `Option<[T; N]>`.
+    pub fn option<'de, D, T, const N: usize>(d: D) -> Result<Option<[T; N]>, D::Error>
+    where
+        D: Deserializer<'de>,
+        T: Deserialize<'de>,
+    {
+        Option::<Vec<T>>::deserialize(d)?.map(sized).transpose()
+    }
+
+    /// `Option<Vec<[T; N]>>`.
+    pub fn option_list<'de, D, T, const N: usize>(d: D) -> Result<Option<Vec<[T; N]>>, D::Error>
+    where
+        D: Deserializer<'de>,
+        T: Deserialize<'de>,
+    {
+        Option::<Vec<Vec<T>>>::deserialize(d)?
+            .map(|list| list.into_iter().map(sized).collect())
+            .transpose()
+    }
+}
+
 /// `"skeleton"` or `"motion"`.
 fn direction_mode(name: &str) -> Option<DirectionSource> {
     match name {
@@ -441,6 +491,7 @@ impl ObjectSpec {
 #[serde(deny_unknown_fields)]
 pub struct PairSpec {
     /// The two bodies; directions are outward for the first.
+    #[serde(deserialize_with = "exact::array")]
     pub objects: [BodyRef; 2],
     /// `τ` of this pair.
     pub tau: Option<f64>,
@@ -448,8 +499,10 @@ pub struct PairSpec {
     /// ([`crate::contact::PairParams::safeguard_angle`]).
     pub safeguard_angle: Option<f64>,
     /// A constant mapping direction.
+    #[serde(default, deserialize_with = "exact::option")]
     pub direction: Option<[f64; 3]>,
     /// Keyframed mapping directions `[time, x, y, z]`.
+    #[serde(default, deserialize_with = "exact::option_list")]
     pub direction_keys: Option<Vec<[f64; 4]>>,
 }
 
@@ -518,6 +571,7 @@ pub struct SelfContactSpec {
 #[serde(deny_unknown_fields)]
 pub struct SeparatedSpec {
     /// The joints (node names) of each side: `[["forearm", "hand"], ["hips"]]`.
+    #[serde(deserialize_with = "exact::array")]
     pub sides: [Vec<String>; 2],
 }
 
@@ -639,14 +693,7 @@ impl ContactConfig {
             file: path.to_path_buf(),
             source,
         };
-        let meta = std::fs::metadata(path).map_err(io)?;
-        if meta.len() > MAX_FILE_BYTES {
-            return Err(io(std::io::Error::other(format!(
-                "{} bytes, above the {MAX_FILE_BYTES} byte limit",
-                meta.len()
-            ))));
-        }
-        let text = std::fs::read_to_string(path).map_err(io)?;
+        let text = read_text(path).map_err(io)?;
         let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
         Self::parse(&text, path, &base)
     }
@@ -916,7 +963,11 @@ impl ContactConfig {
                 positive(p.extent_factor),
                 "must be finite and positive",
             ),
-            ("gamma", finite(p.gamma), "must be finite"),
+            (
+                "gamma",
+                p.gamma.is_none_or(|g| (0.0..=MAX_GAMMA).contains(&g)),
+                "must be between 0 (no bulge) and 10 (ten times the lost volume)",
+            ),
             (
                 "omega",
                 p.omega.is_none_or(|w| w.is_finite() && w >= 0.0),
@@ -1499,15 +1550,41 @@ impl ContactConfig {
             ),
             Confinement::Unreadable(message) => self.map_error(field, map, message),
         })?;
-        let size = std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0);
-        if size > MAX_FILE_BYTES {
-            let message = format!("{size} bytes, above the {MAX_FILE_BYTES} byte limit");
-            return Err(self.map_error(field, map, message));
-        }
-        let text = std::fs::read_to_string(&path)
+        let text = read_text(&path)
             .map_err(|e| self.map_error(field, map, format!("cannot read: {e}")))?;
         parse_map(&text).map_err(|message| self.map_error(field, map, message))
     }
+}
+
+/// The text of a configuration or bulge-map file: a regular file (a FIFO would block, a device
+/// such as `/dev/zero` reports no size and never ends) of at most [`MAX_FILE_BYTES`], read no
+/// further than that even if it grows meanwhile.
+fn read_text(path: &Path) -> std::io::Result<String> {
+    use std::io::Read;
+    let not_regular = || std::io::Error::other("not a regular file");
+    // Checked before opening too: opening a FIFO blocks until a writer comes.
+    if !std::fs::metadata(path)?.is_file() {
+        return Err(not_regular());
+    }
+    let file = std::fs::File::open(path)?;
+    let meta = file.metadata()?;
+    if !meta.is_file() {
+        return Err(not_regular());
+    }
+    let too_big = |size: u64| {
+        std::io::Error::other(format!(
+            "{size} bytes, above the {MAX_FILE_BYTES} byte limit"
+        ))
+    };
+    if meta.len() > MAX_FILE_BYTES {
+        return Err(too_big(meta.len()));
+    }
+    let mut text = String::new();
+    file.take(MAX_FILE_BYTES + 1).read_to_string(&mut text)?;
+    if text.len() as u64 > MAX_FILE_BYTES {
+        return Err(too_big(text.len() as u64));
+    }
+    Ok(text)
 }
 
 /// The numbers of a bulge-map text: whitespace separated, `#` starts a comment. Non-finite

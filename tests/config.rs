@@ -252,6 +252,24 @@ fn unknown_fields_and_wrong_types_are_parse_errors_naming_the_field() {
         ),
         ("[[pair]]\nobjects = [\"ball\"]\n", "pair[0].objects"),
         ("passes = -1\n", "passes"),
+        // Arrays longer than their fixed length: until 2026-12-05 the extra values were
+        // dropped without a word.
+        (
+            "[[pair]]\nobjects = [\"ball\", \"thumb\", \"palm\"]\n",
+            "pair[0].objects",
+        ),
+        (
+            "[[pair]]\nobjects = [0, 1]\ndirection = [0, 1, 0, 7]\n",
+            "pair[0].direction",
+        ),
+        (
+            "[[pair]]\nobjects = [0, 1]\ndirection_keys = [[0, 1, 0, 0, 9]]\n",
+            "pair[0].direction_keys",
+        ),
+        (
+            "[self_contact]\n[[self_contact.separated]]\nsides = [[\"a\"], [\"b\"], [\"c\"]]\n",
+            "self_contact.separated[0].sides",
+        ),
     ];
     for (text, field) in cases {
         let e = write_config(&dir, text).expect_err(text);
@@ -271,6 +289,11 @@ fn bad_numbers_are_invalid_and_name_the_field() {
         ("[defaults]\nstiffness = -inf\n", "defaults.stiffness"),
         ("[defaults]\ntau = inf\n", "defaults.tau"),
         ("[defaults]\ngamma = nan\n", "defaults.gamma"),
+        // A bulge outside [0, 10] times the lost volume: 1e300 overflowed the written
+        // positions, -100 did not finish a frame in two minutes (2026-12-05).
+        ("[defaults]\ngamma = 1e300\n", "defaults.gamma"),
+        ("[defaults]\ngamma = -1\n", "defaults.gamma"),
+        ("[[object]]\nname = \"ball\"\ngamma = 10.5\n", "object[0].gamma"),
         ("[defaults]\nomega = -0.5\n", "defaults.omega"),
         ("[defaults]\nextent = 0.0\n", "defaults.extent"),
         ("[defaults]\nextent_factor = -2\n", "defaults.extent_factor"),
@@ -961,6 +984,10 @@ fn bad_self_contact_values_are_typed_errors_naming_the_field() {
             "self_contact.extent_factor".into(),
         ),
         ("[self_contact]\ngamma = nan\n", "self_contact.gamma".into()),
+        (
+            "[self_contact]\ngamma = -100\n",
+            "self_contact.gamma".into(),
+        ),
         ("[self_contact]\nomega = -1\n", "self_contact.omega".into()),
         (
             "[self_contact]\njoint_extent = 0\n",
@@ -978,6 +1005,7 @@ fn bad_self_contact_values_are_typed_errors_naming_the_field() {
     let with_pair = [
         ("gamma = inf\n", "self_contact.pair[0].gamma"),
         ("gamma = nan\n", "self_contact.pair[0].gamma"),
+        ("gamma = 11\n", "self_contact.pair[0].gamma"),
         ("omega = -0.5\n", "self_contact.pair[0].omega"),
         ("tau = inf\n", "self_contact.pair[0].tau"),
         ("direction = [0, 0, 0]\n", "self_contact.pair[0].direction"),
@@ -1237,4 +1265,34 @@ fn separated_regions_are_read_and_checked() {
     );
     assert!(write_config(&dir, "[[self_contact.separated]]\n").is_err());
     assert!(write_config(&dir, "[[self_contact.separated]]\nsides = [[\"jaw\"]]\n").is_err());
+}
+
+/// A configuration or a bulge map that is not a regular file is refused before it is read: a
+/// FIFO would block the read for ever, a device such as `/dev/zero` reports no size and never
+/// ends (both hung `info` and `pose` until 2026-12-05).
+#[cfg(unix)]
+#[test]
+fn fifos_and_devices_are_not_read() {
+    let dir = scene_dir("fifo");
+    let mkfifo = |name: &str| {
+        std::process::Command::new("mkfifo")
+            .arg(dir.join(name))
+            .status()
+            .is_ok_and(|s| s.success())
+    };
+    if !mkfifo("config.toml") || !mkfifo("map.txt") {
+        println!("mkfifo unavailable: skipped");
+        return;
+    }
+    let not_regular = |e: ConfigError| {
+        assert!(
+            matches!(e, ConfigError::Io { .. }) && format!("{e} {e:?}").contains("not a regular"),
+            "{e:?}"
+        )
+    };
+    not_regular(ContactConfig::load(&dir.join("config.toml")).expect_err("a FIFO"));
+    not_regular(ContactConfig::load(Path::new("/dev/zero")).expect_err("a device"));
+    let e = resolve(&dir, "[[object]]\nname = 0\nbulge_map = \"map.txt\"\n").expect_err("a FIFO");
+    assert!(e.to_string().contains("not a regular file"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
 }

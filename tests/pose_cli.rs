@@ -1323,3 +1323,31 @@ fn pose_metrics_measure_what_was_written() {
     let _ = std::fs::remove_dir_all(&plain);
     let _ = std::fs::remove_dir_all(&folded);
 }
+
+/// A closed pipe on stdout (`contact-skin info rig.glb | head -1`) ends the command quietly,
+/// as other Unix tools do: no panic message, no exit code 101 (until 2026-12-05 `println!`
+/// panicked on the broken pipe).
+#[cfg(unix)]
+#[test]
+fn a_closed_pipe_on_stdout_ends_quietly() {
+    use std::os::unix::process::ExitStatusExt;
+    use std::process::Stdio;
+    let rig_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("rigs/finger.glb");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_contact-skin"))
+        .args(["info", s(&rig_path)])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run contact-skin");
+    // Close the reading end before the command writes anything.
+    drop(child.stdout.take());
+    let out = child.wait_with_output().expect("wait");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    assert_ne!(out.status.code(), Some(101), "{err}");
+    assert!(
+        out.status.success() || out.status.signal() == Some(libc::SIGPIPE),
+        "{:?}: {err}",
+        out.status
+    );
+}
