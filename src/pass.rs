@@ -8,7 +8,7 @@
 //! the thread count.
 
 use crate::contact::{
-    resolve_pair_lazily, Contact, ContactError, ContactSide, DirectionMode, PairParams,
+    resolve_pair_lazily, Contact, ContactError, ContactSide, DirectionMode, PairOutcome, PairParams,
 };
 use crate::deform::{
     deform_region, DeformError, DeformParams, RegionDeformation, RegionFrame, WorkingRegion,
@@ -296,6 +296,28 @@ pub struct PassOutput {
     pub timings: StageTimings,
     /// Contacts resolved by passes after the first.
     pub later_contacts: usize,
+    /// Pairs of bodies found intersecting with no direction to resolve them along (Eq. 2's
+    /// normals cancel out: two bodies crossing symmetrically) and no direction configured,
+    /// left as they were ([`PairOutcome::NoDirection`]); summed over the passes.
+    pub pairs_without_direction: usize,
+}
+
+impl PairOutcome {
+    /// The contact of bodies `[a, b]` if there is one, and whether they intersect with no
+    /// direction.
+    fn into_summary(self, bodies: [usize; 2]) -> (Option<ContactSummary>, bool) {
+        match self {
+            PairOutcome::Apart => (None, false),
+            PairOutcome::NoDirection => (None, true),
+            PairOutcome::Contact(contact) => (
+                Some(ContactSummary {
+                    bodies,
+                    contact: *contact,
+                }),
+                false,
+            ),
+        }
+    }
 }
 
 impl PassOutput {
@@ -482,6 +504,7 @@ impl ContactPass {
             out.timings += next.timings;
             out.positions = next.positions;
             out.later_contacts += next.contacts.len();
+            out.pairs_without_direction += next.pairs_without_direction;
         }
         Ok(out)
     }
@@ -499,7 +522,8 @@ impl ContactPass {
         // Each body's normals made at its first contact (none in a frame without one).
         let normals: Vec<OnceLock<Vec<Vector3<f64>>>> =
             positions.iter().map(|_| OnceLock::new()).collect();
-        let contacts = self.contacts(positions, &normals, &posed, &pairs, time)?;
+        let (contacts, pairs_without_direction) =
+            self.contacts(positions, &normals, &posed, &pairs, time)?;
         let normals: Vec<Vec<Vector3<f64>>> = normals
             .into_iter()
             .map(|n| n.into_inner().unwrap_or_default())
@@ -519,6 +543,7 @@ impl ContactPass {
             contacts,
             timings,
             later_contacts: 0,
+            pairs_without_direction,
         };
         for (body, r) in results.into_iter().enumerate() {
             out.push_body(r, &positions[body]);
@@ -615,7 +640,8 @@ impl ContactPass {
             .collect()
     }
 
-    /// The contacts (Sec. 4) of the candidate `pairs` of bodies, in parallel.
+    /// The contacts (Sec. 4) of the candidate `pairs` of bodies, in parallel, and the number
+    /// of pairs that intersect with no direction ([`PairOutcome::NoDirection`]).
     fn contacts(
         &self,
         positions: &[Vec<Point3<f64>>],
@@ -623,7 +649,7 @@ impl ContactPass {
         posed: &[Option<PosedMesh>],
         pairs: &[(usize, usize)],
         time: f64,
-    ) -> Result<Vec<ContactSummary>, PassError> {
+    ) -> Result<(Vec<ContactSummary>, usize), PassError> {
         // Area-weighted vertex normals of body `k`, made once, when a contact first needs them.
         let normals_of = |k: usize| -> &[Vector3<f64>] {
             normals[k].get_or_init(|| {
@@ -646,7 +672,8 @@ impl ContactPass {
                     (a, b)
                 };
                 let (Some(pa), Some(pb)) = (&posed[a], &posed[b]) else {
-                    return Ok(None); // Not a candidate pair (every pair's bodies are posed).
+                    // Not a candidate pair (every pair's bodies are posed).
+                    return Ok(PairOutcome::Apart.into_summary([a, b]));
                 };
                 let bodies = [a, b];
                 resolve_pair_lazily(
@@ -654,16 +681,15 @@ impl ContactPass {
                     |k| normals_of(bodies[k]),
                     &self.pair_params(a, b, time),
                 )
-                .map(|c| {
-                    c.map(|contact| ContactSummary {
-                        bodies: [a, b],
-                        contact,
-                    })
-                })
+                .map(|outcome| outcome.into_summary([a, b]))
                 .map_err(|source| PassError::Contact { a, b, source })
             })
             .collect::<Result<Vec<_>, _>>()?;
-        Ok(found.into_iter().flatten().collect())
+        let without_direction = found.iter().filter(|f| f.1).count();
+        Ok((
+            found.into_iter().filter_map(|f| f.0).collect(),
+            without_direction,
+        ))
     }
 
     fn deform_body(

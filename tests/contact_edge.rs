@@ -40,6 +40,46 @@ fn an_object_entirely_inside_another_is_left_unchanged() {
     assert_eq!(out.positions, vec![big, small]);
 }
 
+/// Two ellipsoids crossing at right angles about one center: the normals over each side's
+/// intersection region cancel out, so Eq. 2 gives no direction. The pair is left as it was and
+/// counted (`pairs_without_direction`, a warning in `pose`: until 2026-12-05 it was dropped
+/// without a word, as if the bodies only touched); a configured direction resolves it.
+#[test]
+fn a_symmetric_crossing_is_counted_and_a_configured_direction_resolves_it() {
+    use contact_skin::pass::{DirectionTrack, PairOverride};
+    let s = icosphere(3);
+    let stretched = |axis: usize| -> Vec<Point3<f64>> {
+        let mut scale = Vector3::repeat(0.3);
+        scale[axis] = 1.0;
+        s.positions
+            .iter()
+            .map(|p| Point3::from(p.coords.component_mul(&scale)))
+            .collect()
+    };
+    let (a, b) = (stretched(0), stretched(2));
+    let bodies = [
+        (a.as_slice(), s.triangles.as_slice()),
+        (b.as_slice(), s.triangles.as_slice()),
+    ];
+    let input = vec![a.clone(), b.clone()];
+    let out = pass_for(&bodies).run(&input).expect("runs");
+    assert_eq!(out.pairs_without_direction, 1);
+    assert!(out.contacts.is_empty());
+    assert_eq!(out.positions, input);
+    let along_y = PairOverride {
+        bodies: [0, 1],
+        tau: None,
+        safeguard_angle: None,
+        direction: Some(DirectionTrack::constant(Vector3::y())),
+    };
+    let params = bodies.iter().map(|_| ObjectParams::default()).collect();
+    let pass = ContactPass::new(&bodies, params, vec![along_y]).expect("pass precomputes");
+    let out = pass.run(&input).expect("runs");
+    assert_eq!((out.pairs_without_direction, out.contacts.len()), (0, 1));
+    assert!(finite(&out.positions));
+    assert_ne!(out.positions, input);
+}
+
 /// Deep penetration: a sphere sunk past its center into another, down to almost entirely
 /// inside. Finite output, no inverted face; the volume is exact whenever the cubic has a root,
 /// otherwise (almost swallowed: the free part of the small sphere can only bulge inward) the
@@ -231,7 +271,9 @@ fn extruded_contours_extend_the_mapping_region_in_deep_contact() {
 /// meet, and then finds what `resolve_pair` finds with the same normals.
 #[test]
 fn normals_are_made_only_for_a_contact() {
-    use contact_skin::contact::{resolve_pair, resolve_pair_lazily, PairParams, SideFrame};
+    use contact_skin::contact::{
+        resolve_pair, resolve_pair_lazily, PairOutcome, PairParams, SideFrame,
+    };
     use contact_skin::intersect::MeshIndex;
     use contact_skin::mesh::operators::{vertex_normals, NormalWeighting};
     use std::cell::Cell;
@@ -260,6 +302,11 @@ fn normals_are_made_only_for_a_contact() {
             hittable: None,
         };
         let eager = resolve_pair(side(0), side(1), &params).expect("resolves");
+        let lazily = match lazily {
+            PairOutcome::Contact(c) => Some(*c),
+            PairOutcome::Apart => None,
+            PairOutcome::NoDirection => panic!("offset {offset}: no direction"),
+        };
         assert_eq!(lazily.is_some(), meets, "offset {offset}");
         assert_eq!(asked.get(), if meets { 2 } else { 0 }, "offset {offset}");
         // The same contact but for its timings.

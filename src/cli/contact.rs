@@ -240,6 +240,9 @@ pub struct FrameDiagnostics {
     pub contacts: Vec<ContactDiagnostics>,
     /// Contacts resolved by later passes.
     pub later_contacts: usize,
+    /// Pairs of bodies intersecting with no direction (Eq. 2's normals cancel out), left as
+    /// they were ([`contact_skin::pass::PassOutput::pairs_without_direction`]).
+    pub contacts_without_direction: usize,
     /// Stage timings in seconds.
     pub timings_s: StageTimings,
     /// Folds resolved by the self-contact pass, in the order they ran (empty when it is off).
@@ -423,6 +426,7 @@ pub fn diagnostics(rig: &Rig, pre: &Precomputed, c: &ContactFrame) -> FrameDiagn
         bodies,
         contacts,
         later_contacts: c.output.later_contacts,
+        contacts_without_direction: c.output.pairs_without_direction,
         timings_s: c.output.timings,
         folds,
         folds_without_direction: c.self_output.as_ref().map_or(0, |s| s.no_direction),

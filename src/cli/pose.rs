@@ -125,6 +125,10 @@ struct Summary {
     frames: usize,
     /// Frames where the pass found at least one contact.
     contact_frames: usize,
+    /// Pairs of bodies found intersecting with no direction to resolve them along (Eq. 2's
+    /// normals cancel out: a symmetric crossing; a `[[pair]] direction` resolves them), left
+    /// as they were, summed over the frames (a warning).
+    contacts_without_direction: usize,
     vertices: usize,
     files: Vec<String>,
     /// Number of `frame_NNNN.diag.json` written.
@@ -239,6 +243,7 @@ struct Job<'a> {
 struct FrameStats {
     ms: f64,
     contacts: usize,
+    contacts_without_direction: usize,
     timings: Option<StageTimings>,
     diagnostics: bool,
     /// Names of the folds resolved.
@@ -405,6 +410,7 @@ fn summarize(
         passes: job.contact.map(|c| c.passes),
         frames: times.len(),
         contact_frames: stats.iter().filter(|s| s.contacts > 0).count(),
+        contacts_without_direction: stats.iter().map(|s| s.contacts_without_direction).sum(),
         vertices: rig.vertex_count(),
         files: files.iter().map(|p| p.display().to_string()).collect(),
         diagnostics: stats.iter().filter(|s| s.diagnostics).count(),
@@ -434,6 +440,14 @@ fn summarize(
 
 fn print_summary(s: &Summary, a: &Args) -> CliResult {
     warn_stale(s, a);
+    if s.contacts_without_direction > 0 {
+        eprintln!(
+            "warning: {} time(s) two bodies intersected with no direction to resolve them \
+             along (their normals cancel out, as in a symmetric crossing): left as they were; \
+             a `[[pair]] direction` in the configuration resolves them",
+            s.contacts_without_direction
+        );
+    }
     if a.json {
         println!("{}", serde_json::to_string_pretty(s)?);
         return Ok(());
@@ -649,6 +663,7 @@ fn compute_unchecked(
         let stats = FrameStats {
             ms,
             contacts: 0,
+            contacts_without_direction: 0,
             timings: None,
             diagnostics: false,
             folds: Vec::new(),
@@ -674,6 +689,7 @@ fn compute_unchecked(
     let stats = FrameStats {
         ms,
         contacts: cf.output.contacts.len(),
+        contacts_without_direction: cf.output.pairs_without_direction,
         timings: Some(cf.output.timings),
         diagnostics: job.args.diagnostics,
         folds: so.map_or(Vec::new(), |s| {

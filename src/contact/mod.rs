@@ -182,6 +182,19 @@ enum Surfaces<'w> {
     PartsOfOneMesh(Option<&'w InsideTwice<'w>>),
 }
 
+/// What [`resolve_pair_lazily`] finds between two surfaces.
+#[derive(Clone, Debug)]
+pub enum PairOutcome {
+    /// They do not intersect, or only touch.
+    Apart,
+    /// They intersect, but Eq. 2 gives no direction: the normals over both intersection
+    /// regions cancel out (two bodies crossing each other symmetrically) and the pair sets
+    /// none. The intersection is left unresolved; the caller reports it.
+    NoDirection,
+    /// A contact.
+    Contact(Box<Contact>),
+}
+
 /// [`resolve_pair`] with the sides' vertex normals made only when the surfaces meet:
 /// `normals(k)` (side `k`, 0 or 1) is called once per side after the intersection test finds
 /// a contact, never in a frame without one (where the normals, which only Sections 4.2 to 5
@@ -191,10 +204,10 @@ pub fn resolve_pair_lazily<'m, 'a>(
     meshes: [&'m PosedMesh<'a>; 2],
     normals: impl Fn(usize) -> &'m [Vector3<f64>],
     params: &PairParams,
-) -> Result<Option<Contact>, ContactError> {
+) -> Result<PairOutcome, ContactError> {
     let start = Instant::now();
     let Some(ints) = contact_curves(meshes, Surfaces::Separate)? else {
-        return Ok(None);
+        return Ok(PairOutcome::Apart);
     };
     let [a, b] = [0, 1].map(|k| SideFrame {
         mesh: meshes[k],
@@ -202,7 +215,10 @@ pub fn resolve_pair_lazily<'m, 'a>(
         hittable: None,
     });
     check_normals(&a, &b)?;
-    resolve_intersecting(a, b, ints, start, params, Surfaces::Separate)
+    let found = resolve_intersecting(a, b, ints, start, params, Surfaces::Separate)?;
+    Ok(found.map_or(PairOutcome::NoDirection, |c| {
+        PairOutcome::Contact(Box::new(c))
+    }))
 }
 
 /// One normal per vertex on each side.
@@ -246,7 +262,7 @@ fn resolve(
 }
 
 /// Sections 4.1 to 4.4 on two sides whose intersection `ints` is a contact (its test started
-/// at `start`).
+/// at `start`); `None` when no direction can be had (Eq. 2's normals cancel out).
 fn resolve_intersecting(
     a: SideFrame,
     b: SideFrame,
