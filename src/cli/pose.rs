@@ -305,6 +305,7 @@ pub fn run(a: &Args) -> CliResult {
         );
     }
     super::create_folder(&a.out)?;
+    clear_interrupted_runs(a);
     let job = Job {
         args: a,
         rig: &rig,
@@ -470,6 +471,22 @@ fn print_summary(s: &Summary, a: &Args) -> CliResult {
         print_metrics(m);
     }
     Ok(())
+}
+
+/// Clears what an interrupted `pose` left in the output folder (its hidden temporaries and
+/// backups, [`output::clear_interrupted`]) and says so.
+fn clear_interrupted_runs(a: &Args) {
+    let ours = |name: &str| name.starts_with("frame_") || name.ends_with(".baked.glb");
+    let cleared = output::clear_interrupted(&a.out, ours);
+    if !(cleared.removed.is_empty() && cleared.restored.is_empty()) {
+        eprintln!(
+            "warning: {}: an interrupted run's leftovers cleared ({} temporary file(s) removed, \
+             {} earlier version(s) put back)",
+            a.out.display(),
+            cleared.removed.len(),
+            cleared.restored.len()
+        );
+    }
 }
 
 /// The warning about an earlier run's frame files left in the output folder.
@@ -773,20 +790,10 @@ fn all_frames<T: Send>(
         .collect()
 }
 
-/// Commits staged files. A destination taken by a folder is refused before any file is
-/// committed (a rename could not replace it).
+/// Commits staged files all or none ([`output::commit_all`]; a destination taken by a folder
+/// is refused before anything is moved).
 fn commit_all(staged: Vec<Staged>) -> Result<(), String> {
-    if let Some(taken) = staged.iter().find(|s| s.path().is_dir()) {
-        return Err(format!(
-            "{}: a folder is in the way (nothing written)",
-            taken.path().display()
-        ));
-    }
-    for s in staged {
-        let path = s.path().to_path_buf();
-        s.commit().map_err(|e| format!("{}: {e}", path.display()))?;
-    }
-    Ok(())
+    output::commit_all(staged).map_err(|e| e.to_string())
 }
 
 /// One OBJ per frame. Every file (and diagnostics file) is staged and the set committed only
