@@ -174,6 +174,27 @@ fn buffer_view_past_the_buffer_is_an_error() {
     expect_err(&d, "runs past the end");
 }
 
+/// A buffer is its first `byteLength` bytes: a view reaching past a `byteLength` shorter than
+/// the data is an error (until 2026-12-05 it read the bytes beyond without a word).
+#[test]
+fn a_view_past_a_short_byte_length_is_an_error() {
+    for short in [0, 100] {
+        let mut d = fixed_doc();
+        d["buffers"][0]["byteLength"] = json!(short);
+        expect_err(&d, "runs past the end");
+    }
+}
+
+/// A UTF-8 byte order mark before the JSON is a format error that says so.
+#[test]
+fn a_byte_order_mark_is_named() {
+    let mut text = b"\xEF\xBB\xBF".to_vec();
+    text.extend(serde_json::to_vec(&fixed_doc()).expect("json"));
+    let e = rig::load_from_bytes(Path::new("bom.gltf"), &text).expect_err("refused");
+    assert!(matches!(e, RigError::Format { .. }), "{e:?}");
+    assert!(e.to_string().contains("byte order mark"), "{e}");
+}
+
 #[test]
 fn absurd_counts_do_not_allocate() {
     let mut d = fixed_doc();
@@ -297,6 +318,30 @@ fn decreasing_key_times_are_an_error() {
     let mut d = fixed_doc();
     d["buffers"][0] = doc(&l)["buffers"][0].clone();
     expect_err(&d, "strictly increasing");
+}
+
+/// A rotation key that is a zero quaternion (not a rotation) is read as the node's rest
+/// rotation, with a warning: until 2026-12-05 it was the identity between keys and the rest
+/// rotation at the key, without a word (a zero rotation at rest is an error).
+#[test]
+fn zero_rotation_keys_are_the_rest_rotation_with_a_warning() {
+    let mut l = Layout::valid();
+    l.bytes[304..320].fill(0);
+    let mut d = fixed_doc();
+    d["buffers"][0] = doc(&l)["buffers"][0].clone();
+    let h = std::f32::consts::FRAC_1_SQRT_2;
+    d["nodes"][2]["rotation"] = json!([0.0, h, 0.0, h]);
+    let rig = load_json(&d).expect("loads");
+    assert!(
+        rig.warnings
+            .iter()
+            .any(|w| w.contains("1 rotation key(s) are zero")),
+        "{:?}",
+        rig.warnings
+    );
+    let key = &rig.animations[0].channels[0].values[4..8];
+    let rest = [0.0, f64::from(h), 0.0, f64::from(h)];
+    assert_eq!(key, rest.as_slice());
 }
 
 #[test]

@@ -1351,3 +1351,33 @@ fn a_closed_pipe_on_stdout_ends_quietly() {
         out.status
     );
 }
+
+/// The OBJ header names the animation as the file does (`animation "flex"`, not Rust's debug
+/// text `Some("flex")` as until 2026-12-05), and `--no-contact` refuses `--self-contact`
+/// (which it used to ignore).
+#[test]
+fn the_header_names_the_animation_and_no_contact_refuses_self_contact() {
+    let rig_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("rigs/finger.glb");
+    let out = tmp("header");
+    pose_frames(&rig_path, &out, "2", &["--no-contact"]);
+    let text = std::fs::read_to_string(out.join("frame_0000.obj")).expect("frame");
+    let header = text.lines().nth(1).expect("header line");
+    assert!(
+        header.contains("animation \"flex\" skinning lbs"),
+        "{header}"
+    );
+    let both = Command::new(env!("CARGO_BIN_EXE_contact-skin"))
+        .args([
+            "pose",
+            s(&rig_path),
+            "--out",
+            s(&out),
+            "--no-contact",
+            "--self-contact",
+        ])
+        .output()
+        .expect("run");
+    assert!(!both.status.success());
+    assert!(String::from_utf8_lossy(&both.stderr).contains("cannot be used with"));
+    let _ = std::fs::remove_dir_all(&out);
+}

@@ -66,7 +66,7 @@ pub struct Args {
     #[arg(long, value_enum, default_value_t = Skinning::Lbs)]
     skinning: Skinning,
     /// Write the plain skinning result, without the contact passes (objects and self-contact).
-    #[arg(long, conflicts_with_all = ["config", "passes", "diagnostics"])]
+    #[arg(long, conflicts_with_all = ["config", "passes", "diagnostics", "self_contact"])]
     no_contact: bool,
     /// Leave out the self-contact pass (joints folding into themselves); the contact pass
     /// between objects still runs.
@@ -357,10 +357,18 @@ fn header(
             }
         ),
     };
+    // The animation by name, by index when it has none, `none` for the rest pose (until
+    // 2026-12-05 Rust's debug text: `Some("flex")`, `None`).
+    let animation = match animation {
+        Some(i) => match &rig.animations[i].name {
+            Some(name) => format!("{name:?}"),
+            None => i.to_string(),
+        },
+        None => "none".to_owned(),
+    };
     format!(
-        "rig {} animation {:?} skinning {} {contact}",
+        "rig {} animation {animation} skinning {} {contact}",
         a.rig.display(),
-        animation.and_then(|i| rig.animations[i].name.clone()),
         method
     )
 }

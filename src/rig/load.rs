@@ -54,6 +54,15 @@ pub fn load_from_bytes(label: &Path, bytes: &[u8]) -> Result<Rig, RigError> {
 }
 
 fn load_impl(file: &Path, bytes: &[u8], folder: Option<&Path>) -> Result<Rig, RigError> {
+    // glTF JSON must be UTF-8 without a byte order mark; the parser's own message for one
+    // ("expected value at line 1 column 1") did not say what was wrong.
+    if bytes.starts_with(b"\xEF\xBB\xBF") {
+        return Err(RigError::Format {
+            file: file.to_path_buf(),
+            message: "the file starts with a UTF-8 byte order mark, which glTF JSON must not have"
+                .into(),
+        });
+    }
     let gltf = gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| RigError::Format {
         file: file.to_path_buf(),
         message: e.to_string(),
@@ -293,6 +302,11 @@ fn resolve_buffers(
                 buffer.length()
             )));
         }
+        // The buffer is its first byteLength bytes (a GLB chunk is padded to 4 bytes): a view
+        // reaching past them is an error, not read from the padding or beyond (until
+        // 2026-12-05 a byteLength of 0 or too short passed without a word).
+        let mut data = data;
+        data.truncate(buffer.length());
         out.push(data);
     }
     Ok(out)
@@ -1029,11 +1043,41 @@ fn read_animations(
                     continue;
                 }
             };
-            channels.push(read_channel(src, doc, &ch, &at, property)?);
+            let mut channel = read_channel(src, doc, &ch, &at, property)?;
+            if property == Property::Rotation {
+                let rest = ch.target().node().transform().decomposed().1;
+                let zeros = replace_zero_rotations(&mut channel, rest.map(f64::from));
+                if zeros > 0 {
+                    warnings.push(format!(
+                        "{at}: {zeros} rotation key(s) are zero quaternions (not a rotation): \
+                         read as the node's rest rotation"
+                    ));
+                }
+            }
+            channels.push(channel);
         }
         out.push(Animation::new(anim.name().map(str::to_string), channels));
     }
     Ok(out)
+}
+
+/// Replaces the zero quaternions ([`unit_quaternion`]'s `None`) among a rotation channel's key
+/// values (each key's value; a cubic spline's tangents left as they are) by `rest`
+/// (`[x, y, z, w]`); their number.
+/// Sampling would otherwise read them as the identity between keys and as the rest rotation at
+/// a key (until 2026-12-05, without a word).
+fn replace_zero_rotations(channel: &mut Channel, rest: [f64; 4]) -> usize {
+    let cubic = channel.interpolation == Interpolation::CubicSpline;
+    let (stride, value) = if cubic { (12, 4) } else { (4, 0) };
+    let mut zeros = 0;
+    for key in channel.values.chunks_exact_mut(stride) {
+        let q = &mut key[value..value + 4];
+        if unit_quaternion([q[0], q[1], q[2], q[3]]).is_none() {
+            q.copy_from_slice(&rest);
+            zeros += 1;
+        }
+    }
+    zeros
 }
 
 fn read_channel(
