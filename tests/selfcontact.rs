@@ -1530,10 +1530,13 @@ fn crease_cut_follows_the_silhouette_on_every_rig() {
             missing += usize::from(rings.at_fold_vertices == 0);
             cuts += 1;
             let labels = cut_sides(&l.triangles[b], r, &fold.output.crease.on_w1);
-            unseparated += crossing
+            let here = crossing
                 .iter()
                 .filter(|p| labels[p[0] as usize] == labels[p[1] as usize])
                 .count();
+            // The fold's own count of the same check (reported in the diagnostics).
+            assert_eq!(fold.output.unseparated, here, "{name}: {}", fold.name);
+            unseparated += here;
         });
         println!(
             "{name} ({method:?}): {cuts} crease cuts, {missing} not meeting the fold, within {} \

@@ -275,6 +275,9 @@ pub struct FoldDiagnostics {
     pub crease_cut: f64,
     /// Vertices of the shared region that switched side in the crease cut.
     pub crease_stray: usize,
+    /// Crossing face pairs left on one side of the crease cut (`PIPELINE.md`: every one
+    /// should straddle it; `FoldOutput::unseparated`).
+    pub crease_unseparated: usize,
     /// The common bulge height (0 on an open mesh).
     pub bulge_height: f64,
     /// The largest bulge displacement over its band's width (`FoldOutput::bulge_steepness`;
@@ -411,6 +414,7 @@ pub fn diagnostics(rig: &Rig, pre: &Precomputed, c: &ContactFrame) -> FrameDiagn
                 threshold: o.contact.threshold,
                 crease_cut: o.crease.value,
                 crease_stray: o.crease.stray,
+                crease_unseparated: o.unseparated,
                 bulge_height: o.bulge_height,
                 bulge_steepness: o.bulge_steepness,
                 unbalanced: o.unbalanced,

@@ -127,6 +127,10 @@ pub struct FoldOutput {
     pub positions: Vec<Point3<f64>>,
     /// The crease partition.
     pub crease: Crease,
+    /// `PIPELINE.md`'s check of the crease cut: the detection's crossing face pairs left with
+    /// both faces on one side of it (0 when every pair straddles the cut, as it should; 0 for
+    /// separated regions, which have no cut).
+    pub unseparated: usize,
     /// The contact between the truncated regions.
     pub contact: Contact,
     /// `σ` per mesh vertex (0 outside `W1 ∪ W2`).
@@ -200,8 +204,10 @@ pub fn resolve_detected_in(
         .then(|| InsideTwice::new(std::borrow::Cow::Borrowed(&*winding), positions, triangles));
     let tree = inside.as_ref();
     let separated = pre.regions.separated();
-    let (crease, truncated) = if separated {
-        separated_parts(pre, positions, triangles)?
+    // Separated regions have no cut: their sides are apart by construction.
+    let (crease, unseparated, truncated) = if separated {
+        let (crease, parts) = separated_parts(pre, positions, triangles)?;
+        (crease, 0, parts)
     } else {
         cut_the_crease(pre, detection, geometry, tree, params)?
     };
@@ -262,6 +268,7 @@ pub fn resolve_detected_in(
         region_positions: [own_positions(&s1, gamma_h), own_positions(&s2, gamma_h)],
         positions: blended.positions,
         crease,
+        unseparated,
         contact,
         sigma,
         stats: [s1.stats, s2.stats],
@@ -331,7 +338,7 @@ fn cut_the_crease(
     g: &FoldInput,
     tree: Option<&InsideTwice>,
     params: &FoldParams,
-) -> Result<(Crease, Truncated<'static>), FoldError> {
+) -> Result<(Crease, usize, Truncated<'static>), FoldError> {
     let r = &pre.regions;
     let intersecting = match tree {
         Some(tree) => with_buried(pre, g.positions, g.normals, tree, &detection.vertices),
@@ -353,9 +360,20 @@ fn cut_the_crease(
         &params.crease,
     )?;
     let labels = cut_labels(g.triangles, &pre.faces, &crease.on_w1);
+    let unseparated = unseparated_pairs(&detection.face_pairs, &labels);
     let truncated =
         MeshIndex::self_contact_parts_within(Some(&pre.parts), g.positions, g.triangles, &labels)?;
-    Ok((crease, Truncated::Cut(Box::new(truncated))))
+    Ok((crease, unseparated, Truncated::Cut(Box::new(truncated))))
+}
+
+/// `PIPELINE.md`'s check of a crease cut, "every intersecting face pair straddles the cut":
+/// how many of the detection's crossing face `pairs` have both faces on one side of the
+/// cut's face `labels` (0 when it holds).
+fn unseparated_pairs(pairs: &[[u32; 2]], labels: &[u8]) -> usize {
+    pairs
+        .iter()
+        .filter(|[a, b]| labels[*a as usize] == labels[*b as usize])
+        .count()
 }
 
 /// A fold's two truncated parts in one frame, indexed for Sec. 4.2-4.4.

@@ -186,6 +186,8 @@ fn faces_touching(triangles: &[[u32; 3]], w1: &[bool], w2: &[bool]) -> Vec<u32> 
 pub struct Detection {
     /// Vertices of the crossed faces, sorted.
     pub vertices: Vec<u32>,
+    /// The crossing face pairs (W1's side's face first), sorted.
+    pub face_pairs: Vec<[u32; 2]>,
     /// Seconds, with the refit of the body's tree when this detection did it (in the
     /// self-contact pass: the first fold of a body in a frame, or the first after a fold moved
     /// the body; the others reuse that tree).
@@ -242,8 +244,8 @@ impl FoldPre {
     }
 
     /// Detection on the fold's body posed with its tree refit (`sets` from
-    /// [`FoldPre::face_sets`] on that body's index): the vertices of the faces crossing the
-    /// other side, `None` when none do. `started`: when the detection began, so that
+    /// [`FoldPre::face_sets`] on that body's index): the face pairs crossing the other side
+    /// and their vertices, `None` when none do. `started`: when the detection began, so that
     /// [`Detection::seconds`] includes the tree's refit where the caller did it.
     pub fn detect_on(
         &self,
@@ -251,12 +253,7 @@ impl FoldPre {
         sets: &FaceSets,
         started: Instant,
     ) -> Result<Option<Detection>, FoldError> {
-        Ok(
-            intersecting_vertices(body, sets)?.map(|vertices| Detection {
-                vertices,
-                seconds: started.elapsed().as_secs_f64(),
-            }),
-        )
+        intersecting_faces(body, sets, started)
     }
 }
 
@@ -279,13 +276,18 @@ fn rest_labels(triangles: &[[u32; 3]], r: &PairRegions) -> Vec<u8> {
         .collect()
 }
 
-/// Detection with the rest partition: the vertices of the faces crossing the other side, or
-/// `None` when the fold does not intersect itself.
-fn intersecting_vertices(body: &PosedMesh, sets: &FaceSets) -> Result<Option<Vec<u32>>, FoldError> {
+/// Detection with the rest partition: the crossing face pairs and their vertices, or `None`
+/// when the fold does not intersect itself.
+fn intersecting_faces(
+    body: &PosedMesh,
+    sets: &FaceSets,
+    started: Instant,
+) -> Result<Option<Detection>, FoldError> {
     let ints = Intersections::between_sets(body, sets)?;
     if ints.is_empty() {
         return Ok(None);
     }
+    let face_pairs: Vec<[u32; 2]> = ints.segments.iter().map(|s| s.faces).collect();
     let triangles = body.triangles();
     let mut vertices: Vec<u32> = ints
         .segments
@@ -298,7 +300,11 @@ fn intersecting_vertices(body: &PosedMesh, sets: &FaceSets) -> Result<Option<Vec
         .collect();
     vertices.sort_unstable();
     vertices.dedup();
-    Ok(Some(vertices))
+    Ok(Some(Detection {
+        vertices,
+        face_pairs,
+        seconds: started.elapsed().as_secs_f64(),
+    }))
 }
 
 #[cfg(test)]
