@@ -1765,8 +1765,9 @@ fn exterior_of_the_joint_is_left_alone() {
 /// `STEEPEST_BULGE`: a band too narrow for the volume the fold removes is refused, not filled
 /// with a spike. With `φ̄` = 0.084 × the joint's size (a tenth of its shared region's box
 /// diagonal, the former size: a second moment of the region is 1.19 of that diagonal on the
-/// capsule) the capsule's bulge would have to rise 1.3 to 9 times higher than its band is wide
-/// (measured at 80-150°): each such fold is counted as unbalanced and leaves the input as it
+/// capsule) the capsule's bulge would have to rise 1.5 to 35 times higher than its band is
+/// wide (frames 16 to 30, the blended bulge over each region's vertices; 1.3 to 9 measured by
+/// each region's own bulge before 2026-12-05): each such fold is counted as unbalanced and leaves the input as it
 /// was; with the default `φ̄` (1.5 × the joint's size) no fold is refused and the bulge stays
 /// below a tenth of its band. Without the bulge guard: the guard scales the steepest bulge
 /// back where it would enter the other side, and can bring such a fold under the limit

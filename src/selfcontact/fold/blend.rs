@@ -82,12 +82,7 @@ pub(super) fn blend_and_balance(
             crate::mesh::signed_volume(positions, triangles),
             crate::mesh::signed_volume(&out, triangles),
         ) > UNBALANCED_VOLUME;
-    let highest = if guarded + bulge_guarded > 0 {
-        // The bulge as scaled back, not the regions' own (the re-solved `h_v` is higher).
-        scaled_highest(pre, &bulge)
-    } else {
-        regions.map(|r| r.bulge_unit.iter().map(|q| q.norm()).fold(0.0, f64::max))
-    };
+    let highest = highest_bulges(pre, &bulge);
     let steepness = steepness(regions, highest, gamma * h);
     let unbalanced = no_root || steepness > STEEPEST_BULGE;
     if unbalanced {
@@ -142,9 +137,13 @@ fn lowered_bulge(
 /// CesiumMan's and Fox's residuals by 0-2 vertices.
 const GUARD_SOLVES: usize = 4;
 
-/// Per region, the highest blended bulge (per unit `h_v`) over its vertices, as the turn
-/// guard scaled it back.
-fn scaled_highest(pre: &FoldPre, bulge: &[Vector3<f64>]) -> [f64; 2] {
+/// Per region, the highest blended bulge (per unit `h_v`) over its vertices, as the guards
+/// scaled it back: the bulge the fold applies, whether a guard acted or not. (Until
+/// 2026-12-05 a fold no guard acted on was measured by each region's own bulge instead, the
+/// larger in `R` where the blend weighs it down, so that the refusal's measure changed when a
+/// guard first acted; no fold's refusal changed on the scenes compared, the committed rigs,
+/// CesiumMan and Fox with LBS, DQS and CoR input.)
+fn highest_bulges(pre: &FoldPre, bulge: &[Vector3<f64>]) -> [f64; 2] {
     let r = &pre.regions;
     [&r.w1, &r.w2].map(|inside| {
         bulge

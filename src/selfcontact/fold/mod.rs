@@ -141,8 +141,9 @@ pub struct FoldOutput {
     pub bulge_height: f64,
     /// How it was found (`None` for an open mesh: no volume to keep).
     pub root: Option<RootKind>,
-    /// The largest bulge displacement `γ h_v |Q|` of either region over that region's
-    /// effective extent `φ_max,eff` (0 without bulge; `+∞` for a bulge on a zero extent).
+    /// The largest blended bulge displacement `γ h_v |Q|` over either region's vertices, over
+    /// that region's effective extent `φ_max,eff` (0 without bulge; `+∞` for a bulge on a zero
+    /// extent).
     pub bulge_steepness: f64,
     /// No plausible bulge could keep the volume: either no exact root of the cubic (e.g. a
     /// zone whose region's extent is capped to nothing by its border) while the deformation

@@ -9,8 +9,8 @@ use crate::selfcontact::crease::CreaseParams;
 /// [`super::FoldOutput::unbalanced`]).
 pub const UNBALANCED_VOLUME: f64 = 1e-6;
 
-/// Largest bulge, as a multiple of the band it rises from: a region's largest bulge
-/// displacement `γ h_v |Q|` above `STEEPEST_BULGE ×` its effective extent `φ_max,eff` makes
+/// Largest bulge, as a multiple of the band it rises from: the largest blended bulge
+/// displacement `γ h_v |Q|` over a region's vertices above `STEEPEST_BULGE ×` its effective extent `φ_max,eff` makes
 /// the fold unbalanced (see [`super::FoldOutput::unbalanced`]). Such a bulge is steeper than
 /// 45° on average: it happens when a zone of a few vertices sits on its region's border, where the
 /// extent is capped to almost nothing and the whole lost volume must rise from a sliver.
@@ -19,7 +19,7 @@ pub const UNBALANCED_VOLUME: f64 = 1e-6;
 /// extent floor (`κ = 3`) had four folds at 1.4, 1.6, 1.9 and 12 (bulges of 14 to 42 edge
 /// lengths in frame 5, which took that frame from 17 to 116 penetrating vertices); now none
 /// there with either floor, and the rule stays a safeguard, exercised by the bending capsule
-/// with `φ̄` = 0.1 × the joint's size (ratios 1.3 to 9, every fold refused).
+/// with `φ̄` = 0.084 × the joint's size (ratios 1.5 to 35, every fold refused).
 pub const STEEPEST_BULGE: f64 = 1.0;
 
 /// Default [`FoldParams::tau`].
