@@ -2038,3 +2038,37 @@ fn bodies_fold_independently() {
         "both bodies need further sweeps somewhere: {further:?}"
     );
 }
+
+/// `σ` where the shared region has no face of its own (`PairRegions::shared_faces` may be
+/// empty: `R` a ring of vertices between the two regions' faces): every vertex of `R` in a
+/// contact zone takes its zone's sign, +1 in `C_1` and -1 in `C_2`, as on a shared region with
+/// faces (until 2026-12-05 they kept 0 there, the normals' blend). Built from the capsule's
+/// pair with its shared faces left out.
+#[test]
+fn sigma_takes_the_zones_signs_where_the_shared_region_has_no_face() {
+    use contact_skin::selfcontact::fold::FoldPre;
+    let fold = CapsuleFold::new();
+    let mut r = fold.pre.regions.clone();
+    r.shared_faces.clear();
+    let rest = welded_positions(&fold.l.rig, &fold.l.pre, 0.0, None);
+    let faceless = FoldPre::new(&rest[0], &fold.l.triangles[0], r).expect("fold");
+    let mut zone_vertices = 0;
+    for f in [20, 26, 30] {
+        let frame = fold.at_with(&faceless, 1.0, f, &FoldParams::default());
+        let Some(out) = frame.out else { continue };
+        let r = &faceless.regions;
+        for v in (0..r.w1.len()).filter(|&v| r.w1[v] && r.w2[v]) {
+            let sign = match (
+                out.contact.sides[0].zone.inside[v],
+                out.contact.sides[1].zone.inside[v],
+            ) {
+                (true, _) => 1.0,
+                (false, true) => -1.0,
+                (false, false) => continue,
+            };
+            zone_vertices += 1;
+            assert_eq!(out.sigma[v], sign, "frame {f}, vertex {v}");
+        }
+    }
+    assert!(zone_vertices > 0, "no zone vertex in the shared region");
+}

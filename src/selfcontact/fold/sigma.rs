@@ -18,6 +18,15 @@ pub(super) fn sigma_field(
             _ => 0.0,
         })
         .collect();
+    // A vertex of `R` on no face of `R` (all of `R` where it has no face; `PartitionStats::
+    // orphans`) has no harmonic value: in a zone it takes the zone's sign, else 0 (the
+    // normals take over, as where the blend vanishes). Until 2026-12-05 a zone's vertex there
+    // kept 0 too, against the +1 / -1 of this doc.
+    for (v, s) in sigma.iter_mut().enumerate() {
+        if r.w1[v] && r.w2[v] && pre.shared.local_of[v] == u32::MAX {
+            *s = zone_sign(contact, v).unwrap_or(0.0);
+        }
+    }
     let region = &pre.shared.solver.region;
     if region.vertex_count() == 0 {
         return Ok(sigma);
