@@ -126,7 +126,8 @@ fn zone_exact_points(pre: &FoldPre, contact: &Contact) -> HashMap<u32, (f64, f64
                 } else {
                     1.0 - bp.alpha
                 };
-                exact.insert(e, (alpha_first, sign));
+                // A vertex in both zones counts as C_1's ([`zone_sign`]): so does its edge.
+                exact.entry(e).or_insert((alpha_first, sign));
             }
         }
     }
