@@ -22,20 +22,8 @@ pub struct Staged {
 impl Staged {
     /// Writes `bytes` to a temporary sibling of `path` and flushes it to disk.
     pub fn write(path: &Path, bytes: &[u8]) -> std::io::Result<Self> {
-        let folder = match path.parent() {
-            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-            _ => PathBuf::from("."),
-        };
-        let name = path
-            .file_name()
-            .ok_or_else(|| std::io::Error::new(std::io::ErrorKind::InvalidInput, "no file name"))?;
-        let tmp = folder.join(format!(
-            ".{}.tmp{}",
-            name.to_string_lossy(),
-            std::process::id()
-        ));
         let staged = Self {
-            tmp,
+            tmp: sibling(path, "tmp")?,
             path: path.to_path_buf(),
         };
         // On an error `staged` is dropped, which removes the temporary.
@@ -85,12 +73,14 @@ pub fn commit_all(staged: Vec<Staged>) -> std::io::Result<()> {
     let mut moved_aside: Vec<(PathBuf, PathBuf)> = Vec::new();
     for s in &staged {
         if s.path.exists() {
-            let backup = sibling(&s.path, "bak")?;
-            if let Err(e) = std::fs::rename(&s.path, &backup) {
-                let undo = restore(&moved_aside, &[]);
-                return Err(failed(&s.path, e, undo));
+            let aside = sibling(&s.path, "bak").and_then(|backup| {
+                std::fs::rename(&s.path, &backup)?;
+                Ok(backup)
+            });
+            match aside {
+                Ok(backup) => moved_aside.push((s.path.clone(), backup)),
+                Err(e) => return Err(failed(&s.path, e, restore(&moved_aside, &[]))),
             }
-            moved_aside.push((s.path.clone(), backup));
         }
     }
     let mut placed: Vec<PathBuf> = Vec::new();
@@ -108,7 +98,8 @@ pub fn commit_all(staged: Vec<Staged>) -> std::io::Result<()> {
     Ok(())
 }
 
-/// A hidden sibling of `path` named for this process: `.NAME.KIND<pid>`.
+/// A hidden sibling of `path` named for this process, `.NAME.KIND<pid>`: a [`Staged`] file's
+/// temporary (`tmp`), an earlier version [`commit_all`] moved aside (`bak`).
 fn sibling(path: &Path, kind: &str) -> std::io::Result<PathBuf> {
     let name = path
         .file_name()
