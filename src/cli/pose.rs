@@ -306,6 +306,7 @@ pub fn run(a: &Args) -> CliResult {
     }
     super::create_folder(&a.out)?;
     clear_interrupted_runs(a);
+    clear_on_interrupt(a);
     let job = Job {
         args: a,
         rig: &rig,
@@ -484,8 +485,7 @@ fn print_summary(s: &Summary, a: &Args) -> CliResult {
 /// Clears what an interrupted `pose` left in the output folder (its hidden temporaries and
 /// backups, [`output::clear_interrupted`]) and says so.
 fn clear_interrupted_runs(a: &Args) {
-    let ours = |name: &str| name.starts_with("frame_") || name.ends_with(".baked.glb");
-    let cleared = output::clear_interrupted(&a.out, ours);
+    let cleared = output::clear_interrupted(&a.out, written_by_pose);
     if !(cleared.removed.is_empty() && cleared.restored.is_empty()) {
         eprintln!(
             "warning: {}: an interrupted run's leftovers cleared ({} temporary file(s) removed, \
@@ -495,6 +495,27 @@ fn clear_interrupted_runs(a: &Args) {
             cleared.restored.len()
         );
     }
+}
+
+/// The names `pose` writes in its output folder (frames, diagnostics, the baked glb).
+fn written_by_pose(name: &str) -> bool {
+    name.starts_with("frame_") || name.ends_with(".baked.glb")
+}
+
+/// On Ctrl-C (or `SIGTERM`, `SIGHUP`), clears this run's temporaries from the output folder
+/// ([`output::clear_own`]) and ends with exit code 130, so that an interrupted run leaves the
+/// folder as it was (the next run would clear them too: [`clear_interrupted_runs`]). A
+/// process has one handler: where one is already set, it stays.
+fn clear_on_interrupt(a: &Args) {
+    let folder = a.out.clone();
+    let _ = ctrlc::set_handler(move || {
+        output::clear_own(&folder, written_by_pose);
+        eprintln!(
+            "interrupted: {}: this run's temporaries removed",
+            folder.display()
+        );
+        std::process::exit(130);
+    });
 }
 
 /// The warning about an earlier run's frame files left in the output folder.

@@ -142,16 +142,39 @@ pub struct Cleared {
     pub restored: Vec<PathBuf>,
 }
 
-/// Clears what a run killed part way (Ctrl-C, a kill, a power cut) left in `folder`: the hidden
+/// Clears what a run killed part way (a kill, a power cut) left in `folder`: the hidden
 /// temporaries `.NAME.tmpPID` of [`Staged`] files and the backups `.NAME.bakPID` of
 /// [`commit_all`], for the destinations `NAME` that `ours` accepts and a process `PID` that
 /// is no longer running (this process's own are left alone). A backup goes back to its
 /// destination when that is missing (the commit stopped between its two steps), else it is
 /// removed. Only where running processes can be listed (`/proc`); elsewhere nothing is done.
 pub fn clear_interrupted(folder: &Path, ours: impl Fn(&str) -> bool) -> Cleared {
-    let mut cleared = Cleared::default();
     let proc = Path::new("/proc");
-    let (Ok(entries), true) = (std::fs::read_dir(folder), proc.is_dir()) else {
+    if !proc.is_dir() {
+        return Cleared::default();
+    }
+    let own = std::process::id();
+    clear_left_by(folder, ours, |pid| {
+        pid != own && !proc.join(pid.to_string()).exists()
+    })
+}
+
+/// [`clear_interrupted`] for this process's own files: what an interrupt (Ctrl-C) handler
+/// clears before the process ends.
+pub fn clear_own(folder: &Path, ours: impl Fn(&str) -> bool) -> Cleared {
+    let own = std::process::id();
+    clear_left_by(folder, ours, |pid| pid == own)
+}
+
+/// The temporaries and backups in `folder` of the destinations `ours` accepts and of the
+/// processes `left_by` accepts, cleared as [`clear_interrupted`] says.
+fn clear_left_by(
+    folder: &Path,
+    ours: impl Fn(&str) -> bool,
+    left_by: impl Fn(u32) -> bool,
+) -> Cleared {
+    let mut cleared = Cleared::default();
+    let Ok(entries) = std::fs::read_dir(folder) else {
         return cleared;
     };
     for entry in entries.flatten() {
@@ -161,8 +184,7 @@ pub fn clear_interrupted(folder: &Path, ours: impl Fn(&str) -> bool) -> Cleared 
         let Some((target, kind, pid)) = interrupted_name(&name) else {
             continue;
         };
-        let ended = pid != std::process::id() && !proc.join(pid.to_string()).exists();
-        if !(ended && ours(target) && entry.file_type().is_ok_and(|t| t.is_file())) {
+        if !(left_by(pid) && ours(target) && entry.file_type().is_ok_and(|t| t.is_file())) {
             continue;
         }
         let (path, destination) = (entry.path(), folder.join(target));

@@ -6,7 +6,7 @@ pub mod glb;
 pub mod glb_builder;
 pub mod obj;
 
-pub use atomic::{clear_interrupted, commit_all, write_atomic, Cleared, Staged};
+pub use atomic::{clear_interrupted, clear_own, commit_all, write_atomic, Cleared, Staged};
 
 /// Whether every position of `frame` can be written: finite, and within `f32`'s range (OBJ
 /// and glb store `f32`). A rig whose transforms overflow (scales of 1e30 down a joint chain,
