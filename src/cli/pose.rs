@@ -16,6 +16,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
+use std::sync::{Arc, PoisonError, RwLock};
 use std::time::Instant;
 
 /// Output format of `pose`.
@@ -237,6 +238,8 @@ struct Job<'a> {
     pb: ProgressBar,
     /// `--metrics`: the rest mean edge length `h`, the measures' length unit.
     h: Option<f64>,
+    /// The run's file writes, stopped by an interrupt.
+    writes: Arc<Writes>,
 }
 
 /// What is kept of a frame once written.
@@ -306,7 +309,6 @@ pub fn run(a: &Args) -> CliResult {
     }
     super::create_folder(&a.out)?;
     clear_interrupted_runs(a);
-    clear_on_interrupt(a);
     let job = Job {
         args: a,
         rig: &rig,
@@ -317,6 +319,7 @@ pub fn run(a: &Args) -> CliResult {
         faces: obj::ObjFaces::of(&rig),
         pb: progress(times.len(), a.json),
         h: a.metrics.then(|| measure::rest_edge_length(&rig, &pre)),
+        writes: Writes::stopped_on_interrupt(&a.out),
     };
     job.pb.set_message(format!("posing {}", a.rig.display()));
     let (files, mut stats) = match a.format {
@@ -502,20 +505,57 @@ fn written_by_pose(name: &str) -> bool {
     name.starts_with("frame_") || name.ends_with(".baked.glb")
 }
 
-/// On Ctrl-C (or `SIGTERM`, `SIGHUP`), clears this run's temporaries from the output folder
-/// ([`output::clear_own`]) and ends with exit code 130, so that an interrupted run leaves the
-/// folder as it was (the next run would clear them too: [`clear_interrupted_runs`]). A
-/// process has one handler: where one is already set, it stays.
-fn clear_on_interrupt(a: &Args) {
-    let folder = a.out.clone();
-    let _ = ctrlc::set_handler(move || {
-        output::clear_own(&folder, written_by_pose);
-        eprintln!(
-            "interrupted: {}: this run's temporaries removed",
-            folder.display()
-        );
-        std::process::exit(130);
-    });
+/// A run's file writes, stopped by an interrupt (Ctrl-C, `SIGTERM`, `SIGHUP`): each write and
+/// the commit hold the lock to read, the interrupt handler takes it to write, so that it
+/// waits for the writes under way and none starts after; it then clears the run's temporaries
+/// from the output folder ([`output::clear_own`]) and ends the process with exit code 130.
+/// (The next run clears what a run killed outright left: [`clear_interrupted_runs`].)
+#[derive(Default)]
+struct Writes {
+    stopped: RwLock<bool>,
+}
+
+impl Writes {
+    /// The writes of a run into `folder`, stopped on an interrupt. A process has one handler:
+    /// where one is already set, it stays.
+    fn stopped_on_interrupt(folder: &Path) -> Arc<Self> {
+        let writes = Arc::new(Self::default());
+        let (stop, folder) = (Arc::clone(&writes), folder.to_path_buf());
+        let _ = ctrlc::set_handler(move || {
+            let mut stopped = stop.stopped.write().unwrap_or_else(PoisonError::into_inner);
+            *stopped = true;
+            output::clear_own(&folder, written_by_pose);
+            eprintln!(
+                "interrupted: {}: this run's temporaries removed",
+                folder.display()
+            );
+            std::process::exit(130);
+        });
+        writes
+    }
+
+    /// The error once stopped.
+    fn go_on(stopped: &bool) -> Result<(), String> {
+        match stopped {
+            true => Err("interrupted".into()),
+            false => Ok(()),
+        }
+    }
+
+    /// Stages `bytes` for `path` ([`Staged::write`]).
+    fn stage(&self, path: &Path, bytes: &[u8]) -> Result<Staged, String> {
+        let stopped = self.stopped.read().unwrap_or_else(PoisonError::into_inner);
+        Self::go_on(&stopped)?;
+        Staged::write(path, bytes).map_err(|e| format!("{}: {e}", path.display()))
+    }
+
+    /// Commits staged files all or none ([`output::commit_all`]; a destination taken by a
+    /// folder is refused before anything is moved).
+    fn commit(&self, staged: Vec<Staged>) -> Result<(), String> {
+        let stopped = self.stopped.read().unwrap_or_else(PoisonError::into_inner);
+        Self::go_on(&stopped)?;
+        output::commit_all(staged).map_err(|e| e.to_string())
+    }
 }
 
 /// The warning about an earlier run's frame files left in the output folder.
@@ -673,7 +713,7 @@ fn compute(job: &Job, i: usize, t: f64) -> Result<Computed, String> {
     let staged = match diagnostics {
         Some(bytes) => {
             let path = job.args.out.join(contact::diagnostics_file_name(i));
-            Some(Staged::write(&path, &bytes).map_err(|e| format!("{}: {e}", path.display()))?)
+            Some(job.writes.stage(&path, &bytes)?)
         }
         None => None,
     };
@@ -819,12 +859,6 @@ fn all_frames<T: Send>(
         .collect()
 }
 
-/// Commits staged files all or none ([`output::commit_all`]; a destination taken by a folder
-/// is refused before anything is moved).
-fn commit_all(staged: Vec<Staged>) -> Result<(), String> {
-    output::commit_all(staged).map_err(|e| e.to_string())
-}
-
 /// One OBJ per frame. Every file (and diagnostics file) is staged and the set committed only
 /// when every frame was written: a failed run leaves the output folder as it was, with no
 /// partial or mixed sequence (found by fuzzing: a run failing at its last frame left 75 of 76).
@@ -834,8 +868,7 @@ fn write_obj_frames(job: &Job, times: &[f64]) -> Result<Written, BoxError> {
         let (frame, stats, diagnostics) = compute(job, i, t)?;
         let path = job.args.out.join(obj::frame_file_name(i));
         let text = obj::frame_to_obj_with(&job.faces, &frame, &job.header);
-        let obj = Staged::write(&path, text.as_bytes())
-            .map_err(|e| format!("{}: {e}", path.display()))?;
+        let obj = job.writes.stage(&path, text.as_bytes())?;
         job.pb.inc(1);
         Ok((obj, diagnostics, stats))
     })
@@ -849,7 +882,7 @@ fn write_obj_frames(job: &Job, times: &[f64]) -> Result<Written, BoxError> {
         staged.extend(diagnostics);
         stats.push(s);
     }
-    commit_all(staged)?;
+    job.writes.commit(staged)?;
     Ok((paths, stats))
 }
 
@@ -890,7 +923,7 @@ fn write_glb(job: &Job, times: &[f64]) -> Result<Written, BoxError> {
             frames.len()
         );
     }
-    staged.push(Staged::write(&path, &bytes).map_err(|e| format!("{}: {e}", path.display()))?);
-    commit_all(staged)?;
+    staged.push(job.writes.stage(&path, &bytes)?);
+    job.writes.commit(staged)?;
     Ok((vec![path], stats))
 }
