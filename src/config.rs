@@ -1556,35 +1556,14 @@ impl ContactConfig {
     }
 }
 
-/// The text of a configuration or bulge-map file: a regular file (a FIFO would block, a device
-/// such as `/dev/zero` reports no size and never ends) of at most [`MAX_FILE_BYTES`], read no
-/// further than that even if it grows meanwhile.
+/// The text of a configuration or bulge-map file ([`crate::rig::read_whole`]: a regular file of
+/// at most [`MAX_FILE_BYTES`]).
 fn read_text(path: &Path) -> std::io::Result<String> {
-    use std::io::Read;
-    let not_regular = || std::io::Error::other("not a regular file");
-    // Checked before opening too: opening a FIFO blocks until a writer comes.
-    if !std::fs::metadata(path)?.is_file() {
-        return Err(not_regular());
-    }
-    let file = std::fs::File::open(path)?;
-    let meta = file.metadata()?;
-    if !meta.is_file() {
-        return Err(not_regular());
-    }
-    let too_big = |size: u64| {
-        std::io::Error::other(format!(
-            "{size} bytes, above the {MAX_FILE_BYTES} byte limit"
-        ))
-    };
-    if meta.len() > MAX_FILE_BYTES {
-        return Err(too_big(meta.len()));
-    }
-    let mut text = String::new();
-    file.take(MAX_FILE_BYTES + 1).read_to_string(&mut text)?;
-    if text.len() as u64 > MAX_FILE_BYTES {
-        return Err(too_big(text.len() as u64));
-    }
-    Ok(text)
+    let bytes = crate::rig::read_whole(path, MAX_FILE_BYTES).map_err(|e| match e {
+        crate::rig::Unreadable::Io(e) => e,
+        refused => std::io::Error::other(refused.to_string()),
+    })?;
+    String::from_utf8(bytes).map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e))
 }
 
 /// The numbers of a bulge-map text: whitespace separated, `#` starts a comment. Non-finite

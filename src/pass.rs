@@ -302,24 +302,6 @@ pub struct PassOutput {
     pub pairs_without_direction: usize,
 }
 
-impl PairOutcome {
-    /// The contact of bodies `[a, b]` if there is one, and whether they intersect with no
-    /// direction.
-    fn into_summary(self, bodies: [usize; 2]) -> (Option<ContactSummary>, bool) {
-        match self {
-            PairOutcome::Apart => (None, false),
-            PairOutcome::NoDirection => (None, true),
-            PairOutcome::Contact(contact) => (
-                Some(ContactSummary {
-                    bodies,
-                    contact: *contact,
-                }),
-                false,
-            ),
-        }
-    }
-}
-
 impl PassOutput {
     /// Appends one body's result: its deformation, or its input unchanged (`None`: no
     /// contact zone on it), with the diagnostics of either.
@@ -673,7 +655,7 @@ impl ContactPass {
                 };
                 let (Some(pa), Some(pb)) = (&posed[a], &posed[b]) else {
                     // Not a candidate pair (every pair's bodies are posed).
-                    return Ok(PairOutcome::Apart.into_summary([a, b]));
+                    return Ok(([a, b], PairOutcome::Apart));
                 };
                 let bodies = [a, b];
                 resolve_pair_lazily(
@@ -681,15 +663,22 @@ impl ContactPass {
                     |k| normals_of(bodies[k]),
                     &self.pair_params(a, b, time),
                 )
-                .map(|outcome| outcome.into_summary([a, b]))
+                .map(|outcome| ([a, b], outcome))
                 .map_err(|source| PassError::Contact { a, b, source })
             })
             .collect::<Result<Vec<_>, _>>()?;
-        let without_direction = found.iter().filter(|f| f.1).count();
-        Ok((
-            found.into_iter().filter_map(|f| f.0).collect(),
-            without_direction,
-        ))
+        let without_direction = found
+            .iter()
+            .filter(|(_, o)| matches!(o, PairOutcome::NoDirection))
+            .count();
+        let contacts = found
+            .into_iter()
+            .filter_map(|(bodies, o)| {
+                o.into_contact()
+                    .map(|contact| ContactSummary { bodies, contact })
+            })
+            .collect();
+        Ok((contacts, without_direction))
     }
 
     fn deform_body(

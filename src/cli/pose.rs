@@ -16,7 +16,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
-use std::sync::{Arc, PoisonError, RwLock};
+use std::sync::{Arc, PoisonError, RwLock, RwLockReadGuard};
 use std::time::Instant;
 
 /// Output format of `pose`.
@@ -534,26 +534,25 @@ impl Writes {
         writes
     }
 
-    /// The error once stopped.
-    fn go_on(stopped: &bool) -> Result<(), String> {
-        match stopped {
+    /// The lock to write under, while the run is not stopped.
+    fn open(&self) -> Result<RwLockReadGuard<'_, bool>, String> {
+        let stopped = self.stopped.read().unwrap_or_else(PoisonError::into_inner);
+        match *stopped {
             true => Err("interrupted".into()),
-            false => Ok(()),
+            false => Ok(stopped),
         }
     }
 
     /// Stages `bytes` for `path` ([`Staged::write`]).
     fn stage(&self, path: &Path, bytes: &[u8]) -> Result<Staged, String> {
-        let stopped = self.stopped.read().unwrap_or_else(PoisonError::into_inner);
-        Self::go_on(&stopped)?;
+        let _open = self.open()?;
         Staged::write(path, bytes).map_err(|e| format!("{}: {e}", path.display()))
     }
 
     /// Commits staged files all or none ([`output::commit_all`]; a destination taken by a
     /// folder is refused before anything is moved).
     fn commit(&self, staged: Vec<Staged>) -> Result<(), String> {
-        let stopped = self.stopped.read().unwrap_or_else(PoisonError::into_inner);
-        Self::go_on(&stopped)?;
+        let _open = self.open()?;
         output::commit_all(staged).map_err(|e| e.to_string())
     }
 }

@@ -153,7 +153,7 @@ pub fn resolve_pair(
     b: SideFrame,
     params: &PairParams,
 ) -> Result<Option<Contact>, ContactError> {
-    resolve(a, b, params, Surfaces::Separate)
+    resolve(a, b, params, Surfaces::Separate).map(PairOutcome::into_contact)
 }
 
 /// [`resolve_pair`] for the two truncated working regions of one mesh (2021 Sec. 6: Sections
@@ -170,7 +170,7 @@ pub fn resolve_self_pair(
     params: &PairParams,
     inside: Option<&InsideTwice>,
 ) -> Result<Option<Contact>, ContactError> {
-    resolve(part1, part2, params, Surfaces::PartsOfOneMesh(inside))
+    resolve(part1, part2, params, Surfaces::PartsOfOneMesh(inside)).map(PairOutcome::into_contact)
 }
 
 /// What the two sides of a contact are.
@@ -182,7 +182,8 @@ enum Surfaces<'w> {
     PartsOfOneMesh(Option<&'w InsideTwice<'w>>),
 }
 
-/// What [`resolve_pair_lazily`] finds between two surfaces.
+/// What two surfaces amount to (Sec. 4): [`resolve_pair_lazily`]'s result, which
+/// [`resolve_pair`] and [`resolve_self_pair`] give as their contact alone.
 #[derive(Clone, Debug)]
 pub enum PairOutcome {
     /// They do not intersect, or only touch.
@@ -193,6 +194,16 @@ pub enum PairOutcome {
     NoDirection,
     /// A contact.
     Contact(Box<Contact>),
+}
+
+impl PairOutcome {
+    /// The contact, if there is one.
+    pub fn into_contact(self) -> Option<Contact> {
+        match self {
+            PairOutcome::Contact(c) => Some(*c),
+            PairOutcome::Apart | PairOutcome::NoDirection => None,
+        }
+    }
 }
 
 /// [`resolve_pair`] with the sides' vertex normals made only when the surfaces meet:
@@ -215,10 +226,7 @@ pub fn resolve_pair_lazily<'m, 'a>(
         hittable: None,
     });
     check_normals(&a, &b)?;
-    let found = resolve_intersecting(a, b, ints, start, params, Surfaces::Separate)?;
-    Ok(found.map_or(PairOutcome::NoDirection, |c| {
-        PairOutcome::Contact(Box::new(c))
-    }))
+    resolve_intersecting(a, b, ints, start, params, Surfaces::Separate)
 }
 
 /// One normal per vertex on each side.
@@ -252,17 +260,17 @@ fn resolve(
     b: SideFrame,
     params: &PairParams,
     surfaces: Surfaces,
-) -> Result<Option<Contact>, ContactError> {
+) -> Result<PairOutcome, ContactError> {
     check_normals(&a, &b)?;
     let start = Instant::now();
     let Some(ints) = contact_curves([a.mesh, b.mesh], surfaces)? else {
-        return Ok(None);
+        return Ok(PairOutcome::Apart);
     };
     resolve_intersecting(a, b, ints, start, params, surfaces)
 }
 
 /// Sections 4.1 to 4.4 on two sides whose intersection `ints` is a contact (its test started
-/// at `start`); `None` when no direction can be had (Eq. 2's normals cancel out).
+/// at `start`); [`PairOutcome::NoDirection`] when Eq. 2's normals cancel out.
 fn resolve_intersecting(
     a: SideFrame,
     b: SideFrame,
@@ -270,7 +278,7 @@ fn resolve_intersecting(
     start: Instant,
     params: &PairParams,
     surfaces: Surfaces,
-) -> Result<Option<Contact>, ContactError> {
+) -> Result<PairOutcome, ContactError> {
     let mut regions = [
         IntersectionRegion::inside(&ints, Side::A, a.mesh)?,
         IntersectionRegion::inside(&ints, Side::B, b.mesh)?,
@@ -309,7 +317,7 @@ fn resolve_intersecting(
         None => pair_direction(a, b, &regions, params)?,
     };
     let Some(dir_a) = dir else {
-        return Ok(None);
+        return Ok(PairOutcome::NoDirection);
     };
     let reach = 2.0 * reach_of(a.mesh, b.mesh);
     let stiffness_a = params.stiffness_a.clamp(0.0, 1.0);
@@ -332,7 +340,7 @@ fn resolve_intersecting(
     };
     let zoned = contact_zones([a, b], &ints, &mapped, frames, reach, criterion);
     let t_zone = start.elapsed().as_secs_f64();
-    Ok(Some(Contact {
+    Ok(PairOutcome::Contact(Box::new(Contact {
         sides: zoned.sides,
         threshold: zoned.threshold,
         mean_depth: zoned.mean_depth,
@@ -343,7 +351,7 @@ fn resolve_intersecting(
             mapping: t_map - t_int,
             zones: t_zone - t_map,
         },
-    }))
+    })))
 }
 
 /// The intersection points of a side's edges, by edge then `t` (not in the map's order,

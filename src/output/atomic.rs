@@ -239,10 +239,17 @@ impl Drop for Staged {
 mod tests {
     use super::*;
 
+    /// An empty temporary folder `NAME-PID`.
+    fn fresh_dir(name: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("dir");
+        dir
+    }
+
     #[test]
     fn replaces_whole_files_and_leaves_no_temporary() {
-        let dir = std::env::temp_dir().join(format!("cs-atomic-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).expect("dir");
+        let dir = fresh_dir("cs-atomic");
         let path = dir.join("out.obj");
         write_atomic(&path, b"first version, longer").expect("write");
         write_atomic(&path, b"second").expect("overwrite");
@@ -270,16 +277,17 @@ mod tests {
     /// left, and the error names the file.
     #[test]
     fn a_set_is_committed_all_or_none() {
-        let dir = std::env::temp_dir().join(format!("cs-commit-all-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).expect("dir");
+        let dir = fresh_dir("cs-commit-all");
         let [a, b, c] = ["a.obj", "b.obj", "c.obj"].map(|n| dir.join(n));
         std::fs::write(&a, b"old a").expect("old a");
         std::fs::write(&b, b"old b").expect("old b");
-        let staged: Vec<Staged> = [&a, &b, &c]
-            .iter()
-            .map(|p| Staged::write(p, b"new").expect("stage"))
-            .collect();
+        let stage_all = || -> Vec<Staged> {
+            [&a, &b, &c]
+                .iter()
+                .map(|p| Staged::write(p, b"new").expect("stage"))
+                .collect()
+        };
+        let staged = stage_all();
         std::fs::remove_file(&staged[1].tmp).expect("lose b's temporary");
         let e = commit_all(staged).expect_err("b cannot be committed");
         assert!(e.to_string().contains("b.obj"), "{e}");
@@ -298,11 +306,7 @@ mod tests {
         assert_eq!(std::fs::read(&a).expect("a"), b"old a");
         // And a set that can be committed is.
         std::fs::remove_dir(&c).expect("remove folder c");
-        let staged: Vec<Staged> = [&a, &b, &c]
-            .iter()
-            .map(|p| Staged::write(p, b"new").expect("stage"))
-            .collect();
-        commit_all(staged).expect("commits");
+        commit_all(stage_all()).expect("commits");
         for p in [&a, &b, &c] {
             assert_eq!(std::fs::read(p).expect("read"), b"new");
         }
@@ -315,9 +319,7 @@ mod tests {
     /// process's and names not ours are left.
     #[test]
     fn what_an_interrupted_run_left_is_cleared() {
-        let dir = std::env::temp_dir().join(format!("cs-interrupted-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).expect("dir");
+        let dir = fresh_dir("cs-interrupted");
         if !Path::new("/proc").is_dir() {
             return;
         }
@@ -362,9 +364,7 @@ mod tests {
 
     #[test]
     fn staged_files_appear_only_when_committed() {
-        let dir = std::env::temp_dir().join(format!("cs-staged-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).expect("dir");
+        let dir = fresh_dir("cs-staged");
         let (a, b) = (dir.join("a.obj"), dir.join("b.obj"));
         std::fs::write(&b, b"old").expect("old b");
         let sa = Staged::write(&a, b"new a").expect("stage a");

@@ -19,32 +19,68 @@ pub fn load(path: &Path) -> Result<Rig, RigError> {
         file: path.to_path_buf(),
         source,
     };
-    let meta = std::fs::metadata(path).map_err(io)?;
-    if let Err(message) = readable_size(&meta) {
-        return Err(RigError::Format {
+    let bytes = read_whole(path, MAX_FILE_BYTES).map_err(|e| match e {
+        Unreadable::Io(source) => io(source),
+        Unreadable::Refused(message) => RigError::Format {
             file: path.to_path_buf(),
             message,
-        });
-    }
-    let bytes = std::fs::read(path).map_err(io)?;
+        },
+    })?;
     let folder = path.parent().map(Path::to_path_buf).unwrap_or_default();
     load_impl(path, &bytes, Some(&folder))
 }
 
-/// A file we read whole: a regular file (a FIFO or a device would block or never end; found by
-/// fuzzing) of at most [`MAX_FILE_BYTES`].
-fn readable_size(meta: &std::fs::Metadata) -> Result<(), String> {
-    if !meta.is_file() {
-        return Err("not a regular file".into());
+/// Why [`read_whole`] read nothing.
+#[derive(Debug)]
+pub(crate) enum Unreadable {
+    /// The file system's error.
+    Io(std::io::Error),
+    /// Not a regular file, or too large.
+    Refused(String),
+}
+
+impl std::fmt::Display for Unreadable {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Unreadable::Io(e) => e.fmt(f),
+            Unreadable::Refused(why) => f.write_str(why),
+        }
     }
-    if meta.len() > MAX_FILE_BYTES {
-        return Err(format!(
-            "file is {} bytes, above the {} byte limit",
-            meta.len(),
-            MAX_FILE_BYTES
-        ));
+}
+
+/// The bytes of a file we read whole (a rig, its buffers, a configuration, a bulge map): a
+/// regular file of at most `limit` bytes, read no further than that even if it grows. A FIFO
+/// would block (opening one waits for a writer, so it is refused from its `stat`) and a
+/// device such as `/dev/zero` reports no size and never ends (found by fuzzing and by
+/// probing the CLI).
+pub(crate) fn read_whole(path: &Path, limit: u64) -> Result<Vec<u8>, Unreadable> {
+    use std::io::Read;
+    let refuse = |meta: &std::fs::Metadata| {
+        if !meta.is_file() {
+            Err(Unreadable::Refused("not a regular file".into()))
+        } else if meta.len() > limit {
+            Err(too_big(meta.len(), limit))
+        } else {
+            Ok(())
+        }
+    };
+    refuse(&std::fs::metadata(path).map_err(Unreadable::Io)?)?;
+    let file = std::fs::File::open(path).map_err(Unreadable::Io)?;
+    refuse(&file.metadata().map_err(Unreadable::Io)?)?;
+    let mut bytes = Vec::new();
+    file.take(limit + 1)
+        .read_to_end(&mut bytes)
+        .map_err(Unreadable::Io)?;
+    match bytes.len() as u64 > limit {
+        true => Err(too_big(bytes.len() as u64, limit)),
+        false => Ok(bytes),
     }
-    Ok(())
+}
+
+fn too_big(size: u64, limit: u64) -> Unreadable {
+    Unreadable::Refused(format!(
+        "file is {size} bytes, above the {limit} byte limit"
+    ))
 }
 
 /// Reads a rig from bytes already in memory. `label` names it in errors; external buffer
@@ -274,7 +310,7 @@ fn resolve_buffers(
             buffer: i,
             message,
         };
-        let data = match buffer.source() {
+        let mut data = match buffer.source() {
             gltf::buffer::Source::Bin => gltf
                 .blob
                 .clone()
@@ -289,10 +325,8 @@ fn resolve_buffers(
                     ))
                 })?;
                 let path = safe_relative_path(folder, uri).map_err(err)?;
-                let cannot = |e: String| err(format!("cannot read '{}': {e}", path.display()));
-                let meta = std::fs::metadata(&path).map_err(|e| cannot(e.to_string()))?;
-                readable_size(&meta).map_err(cannot)?;
-                std::fs::read(&path).map_err(|e| cannot(e.to_string()))?
+                read_whole(&path, MAX_FILE_BYTES)
+                    .map_err(|e| err(format!("cannot read '{}': {e}", path.display())))?
             }
         };
         if data.len() < buffer.length() {
@@ -305,7 +339,6 @@ fn resolve_buffers(
         // The buffer is its first byteLength bytes (a GLB chunk is padded to 4 bytes): a view
         // reaching past them is an error, not read from the padding or beyond (until
         // 2026-12-05 a byteLength of 0 or too short passed without a word).
-        let mut data = data;
         data.truncate(buffer.length());
         out.push(data);
     }

@@ -14,7 +14,7 @@ mod weights;
 
 pub use animation::{Animation, Channel, Interpolation, Property};
 pub use error::RigError;
-pub(crate) use load::{confined_path, Confinement};
+pub(crate) use load::{confined_path, read_whole, Confinement, Unreadable};
 pub use load::{load, load_from_bytes};
 pub use skeleton::{LocalTransform, Node, Pose, Trs};
 pub use weights::SkinWeights;

@@ -289,14 +289,10 @@ fn intersecting_faces(
     }
     let face_pairs: Vec<[u32; 2]> = ints.segments.iter().map(|s| s.faces).collect();
     let triangles = body.triangles();
-    let mut vertices: Vec<u32> = ints
-        .segments
+    let mut vertices: Vec<u32> = face_pairs
         .iter()
-        .flat_map(|s| {
-            triangles[s.faces[0] as usize]
-                .into_iter()
-                .chain(triangles[s.faces[1] as usize])
-        })
+        .flatten()
+        .flat_map(|&f| triangles[f as usize])
         .collect();
     vertices.sort_unstable();
     vertices.dedup();
