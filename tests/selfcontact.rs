@@ -1171,6 +1171,7 @@ impl CapsuleFold {
                 params,
             )
             .expect("fold runs")
+            .into_output()
         });
         FoldFrame {
             input,

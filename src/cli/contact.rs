@@ -248,7 +248,8 @@ pub struct FrameDiagnostics {
     /// Folds resolved by the self-contact pass, in the order they ran (empty when it is off).
     pub folds: Vec<FoldDiagnostics>,
     /// Joint pairs skipped by the self-contact pass for want of a direction (bones folded 180°,
-    /// or no common relative motion where the parts meet).
+    /// no common relative motion where the parts meet, or separated regions crossing
+    /// symmetrically).
     pub folds_without_direction: usize,
     /// Folds left unresolved because no bulge could keep the volume without a spike.
     pub folds_unbalanced: usize,

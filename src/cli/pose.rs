@@ -156,8 +156,9 @@ struct Summary {
     fold_frames: usize,
     /// The pairs found folding into contact in some frame, in the pass's order.
     folds: Vec<String>,
-    /// Joint pairs skipped for want of a direction (bones folded 180°, or no common relative
-    /// motion where the parts meet), summed over the frames.
+    /// Joint pairs skipped for want of a direction (bones folded 180°, no common relative
+    /// motion where the parts meet, or separated regions whose normals cancel out in Eq. 2),
+    /// summed over the frames.
     folds_without_direction: usize,
     /// Folds left unresolved because no bulge could keep the volume without a spike, summed
     /// over the frames.
@@ -635,7 +636,7 @@ fn print_self_contact(s: &Summary) {
         }
         if s.folds_without_direction > 0 {
             println!(
-                "self-contact: {} fold(s) skipped without a direction (bones folded 180°, or no common relative motion)",
+                "self-contact: {} fold(s) skipped without a direction (bones folded 180°, no common relative motion, or separated regions crossing symmetrically)",
                 s.folds_without_direction
             );
         }

@@ -163,14 +163,15 @@ pub fn resolve_pair(
 /// intersections.
 ///
 /// `inside`: the inside-twice test at the current positions (see [`InsideTwice`]); built here
-/// from the whole mesh when `None`.
+/// from the whole mesh when `None`. Unlike [`resolve_pair`], the whole [`PairOutcome`]: the
+/// self-contact pass counts the parts that intersect without a direction.
 pub fn resolve_self_pair(
     part1: SideFrame,
     part2: SideFrame,
     params: &PairParams,
     inside: Option<&InsideTwice>,
-) -> Result<Option<Contact>, ContactError> {
-    resolve(part1, part2, params, Surfaces::PartsOfOneMesh(inside)).map(PairOutcome::into_contact)
+) -> Result<PairOutcome, ContactError> {
+    resolve(part1, part2, params, Surfaces::PartsOfOneMesh(inside))
 }
 
 /// What the two sides of a contact are.

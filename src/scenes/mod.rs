@@ -253,6 +253,70 @@ pub fn write_all(resolution: u32, dir: &Path) -> Result<Vec<PathBuf>, SceneError
         .collect()
 }
 
+/// Most subdivision levels [`icosphere`] takes (655 362 vertices).
+pub const MAX_ICOSPHERE_LEVELS: u32 = 8;
+
+/// The unit icosphere subdivided `levels` times (at most [`MAX_ICOSPHERE_LEVELS`]; more is
+/// taken as that): `10·4^levels + 2` vertices and counter-clockwise triangles seen from
+/// outside, mirror-symmetric about the coordinate planes (a symmetric test body).
+pub fn icosphere(levels: u32) -> (Vec<nalgebra::Point3<f64>>, Vec<[u32; 3]>) {
+    let mesh = shapes::icosphere(levels.min(MAX_ICOSPHERE_LEVELS));
+    (mesh.positions, mesh.triangles)
+}
+
+/// A test rig (not in `rigs/`): two ellipsoids crossing at right angles, the second shifted by
+/// `offset` along y, in one mesh, each rigid on one of two sibling joints under a `hub` joint
+/// (which carries a third ellipsoid, far from the others, so that it is a weighted parent). At
+/// `offset = 0` the mesh's mirror symmetries make the normals over both intersection regions
+/// cancel out (Eq. 2 gives no direction).
+#[cfg(test)]
+pub(crate) fn crossing_ellipsoids_glb(offset: f64) -> Vec<u8> {
+    use nalgebra::{Point3, Vector3};
+    use shapes::MeshData;
+    use write::{Influence, Joint, SceneSpec, SkinnedBody};
+    let part = |scale: Vector3<f64>, shift: Vector3<f64>| {
+        let mut m = shapes::icosphere(3);
+        for (p, n) in m.positions.iter_mut().zip(&mut m.normals) {
+            *p = Point3::from(p.coords.component_mul(&scale) + shift);
+            *n = n.component_div(&scale).normalize();
+        }
+        m
+    };
+    let thin = Vector3::new(1.0, 0.3, 0.3);
+    let parts = [
+        part(thin, Vector3::zeros()),
+        part(Vector3::new(0.3, 0.3, 1.0), Vector3::y() * offset),
+        part(thin, Vector3::y() * 3.0),
+    ];
+    let mut mesh = MeshData::default();
+    let mut influences = Vec::new();
+    for (joint, part) in [1u16, 2, 0].into_iter().zip(parts) {
+        let first = mesh.positions.len() as u32;
+        influences.extend(part.positions.iter().map(|_| Influence::rigid(joint)));
+        mesh.positions.extend(part.positions);
+        mesh.normals.extend(part.normals);
+        mesh.triangles
+            .extend(part.triangles.iter().map(|t| t.map(|i| i + first)));
+    }
+    let spec = SceneSpec {
+        name: "crossing_ellipsoids",
+        joints: vec![
+            Joint::at("hub", None, Vector3::zeros()),
+            Joint::at("long_x", Some(0), Vector3::zeros()),
+            Joint::at("long_z", Some(0), Vector3::zeros()),
+        ],
+        bodies: vec![SkinnedBody {
+            name: "ellipsoids",
+            mesh,
+            skin: vec![0, 1, 2],
+            influences,
+            analytic_volume: 0.0,
+        }],
+        clips: Vec::new(),
+    };
+    write::assemble(&spec).expect("the test rig assembles")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

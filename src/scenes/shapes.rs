@@ -154,6 +154,79 @@ pub(crate) fn capsule(frame: &Frame, r: f64, length: f64, h: f64) -> MeshData {
     revolve(frame, &profile, 4 * q)
 }
 
+/// The unit icosphere: the icosahedron with vertices `(0, ±1, ±φ)` and their cyclic
+/// permutations, each face split into four `levels` times, every new vertex pushed onto the
+/// sphere (`10·4^levels + 2` vertices). Unlike the surfaces of revolution, its triangulation is
+/// mirror-symmetric about the three coordinate planes.
+pub(crate) fn icosphere(levels: u32) -> MeshData {
+    let t = (1.0 + 5f64.sqrt()) / 2.0;
+    let corners = [
+        [-1.0, t, 0.0],
+        [1.0, t, 0.0],
+        [-1.0, -t, 0.0],
+        [1.0, -t, 0.0],
+        [0.0, -1.0, t],
+        [0.0, 1.0, t],
+        [0.0, -1.0, -t],
+        [0.0, 1.0, -t],
+        [t, 0.0, -1.0],
+        [t, 0.0, 1.0],
+        [-t, 0.0, -1.0],
+        [-t, 0.0, 1.0],
+    ];
+    let mut positions: Vec<Point3<f64>> = corners
+        .iter()
+        .map(|p| Point3::from(Vector3::new(p[0], p[1], p[2]).normalize()))
+        .collect();
+    let mut triangles: Vec<[u32; 3]> = vec![
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
+    ];
+    for _ in 0..levels {
+        let mut mid: std::collections::HashMap<(u32, u32), u32> = Default::default();
+        let mut next = Vec::with_capacity(triangles.len() * 4);
+        for tri in &triangles {
+            let m: [u32; 3] = std::array::from_fn(|k| {
+                let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                *mid.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                    let p = nalgebra::center(&positions[a as usize], &positions[b as usize]);
+                    positions.push(Point3::from(p.coords.normalize()));
+                    (positions.len() - 1) as u32
+                })
+            });
+            next.push([tri[0], m[0], m[2]]);
+            next.push([tri[1], m[1], m[0]]);
+            next.push([tri[2], m[2], m[1]]);
+            next.push([m[0], m[1], m[2]]);
+        }
+        triangles = next;
+    }
+    let normals = positions.iter().map(|p| p.coords).collect();
+    MeshData {
+        positions,
+        normals,
+        triangles,
+    }
+}
+
 /// Volume of the smooth capsule of [`capsule`].
 pub(crate) fn capsule_volume(r: f64, length: f64) -> f64 {
     PI * r * r * length + 4.0 / 3.0 * PI * r.powi(3)

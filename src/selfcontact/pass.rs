@@ -6,7 +6,8 @@
 
 use super::direction::{BoneAxes, DirectionSource, Meeting};
 use super::fold::{
-    resolve_detected_in, FoldError, FoldInput, FoldOutput, FoldParams, FoldPre, FoldTimings,
+    resolve_detected_in, FoldError, FoldInput, FoldOutcome, FoldOutput, FoldParams, FoldPre,
+    FoldTimings,
 };
 use super::regions::{derive_pairs_reporting, PairRegions, RegionOptions};
 use super::turn_guard::TurnReference;
@@ -60,7 +61,8 @@ pub struct SelfPassOutput {
     pub timings: FoldTimings,
     /// Folds that intersect themselves but were skipped for want of a direction (a full 180°
     /// fold for the skeleton's, no common relative motion where the parts meet for the
-    /// motion's).
+    /// motion's, normals cancelling out in Eq. 2 for separated regions:
+    /// [`FoldOutcome::NoDirection`]; until 2026-12-05 the last were not counted).
     pub no_direction: usize,
     /// Folds left unresolved because no bulge could keep the volume without a spike
     /// ([`crate::selfcontact::fold::FoldOutput::unbalanced`]).
@@ -642,8 +644,13 @@ impl SelfContactPass {
                 .map(Vec::as_slice),
         };
         let resolved = resolve_detected_in(&fold.pre, &detection, &input, params, winding);
-        let Some(o) = resolved.map_err(fail)? else {
-            return Ok(false);
+        let o = match resolved.map_err(fail)? {
+            FoldOutcome::Resolved(o) => o,
+            FoldOutcome::NoDirection => {
+                out.no_direction += 1;
+                return Ok(false);
+            }
+            FoldOutcome::Apart => return Ok(false),
         };
         out.unbalanced += usize::from(o.unbalanced);
         if !o.unbalanced {
@@ -661,7 +668,7 @@ impl SelfContactPass {
             } else {
                 direction
             },
-            output: o,
+            output: *o,
         });
         Ok(moved)
     }
@@ -1000,6 +1007,49 @@ impl LinearNormals<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Two ellipsoids crossing at right angles, rigid on sibling joints: the
+    /// skeleton's separated pair (the siblings' subtrees) crosses itself at rest. Centered, the
+    /// normals over both intersection regions cancel out (Eq. 2 has no direction): the pass
+    /// leaves the mesh as it was and counts the fold as one without a direction (until
+    /// 2026-12-05 it was dropped as if the parts only touched). Shifted off center, the same
+    /// pair is resolved.
+    #[test]
+    fn separated_regions_crossing_symmetrically_count_as_without_direction() {
+        use crate::frames::{welded_positions, Precomputed};
+        use crate::selfcontact::separated_from_skeleton;
+        use crate::skinning::Method;
+        let run = |offset: f64| {
+            let bytes = crate::scenes::crossing_ellipsoids_glb(offset);
+            let rig = crate::rig::load_from_bytes(std::path::Path::new("crossing"), &bytes)
+                .expect("the test rig loads");
+            let pre = Precomputed::new(&rig, Method::Lbs);
+            let rest = welded_positions(&rig, &pre, None, 0.0);
+            let options = RegionOptions::default();
+            let separated = separated_from_skeleton(&rig, &pre.welded, &options).expect("pairs");
+            assert_eq!(separated.len(), 1, "long_x against long_z");
+            let pass = SelfContactPass::with_separated(
+                &rig,
+                &pre.welded,
+                &rest,
+                &options,
+                FoldParams::default(),
+                &[],
+                separated,
+            )
+            .expect("pass");
+            let mut positions = rest.clone();
+            let pose = rig.pose_at(None, 0.0);
+            let out = pass.run(&rig, &pose, &mut positions).expect("runs");
+            (out, positions == rest)
+        };
+        let (out, unchanged) = run(0.0);
+        assert_eq!((out.no_direction, out.folds.len()), (1, 0));
+        assert!(unchanged);
+        let (out, unchanged) = run(0.05);
+        assert_eq!(out.no_direction, 0);
+        assert!(!out.folds.is_empty() && !unchanged);
+    }
 
     /// A body's detection tree follows its positions: after [`PosedBodies::replace`] the next
     /// detection refits it (a stale tree would miss the pairs the move created), and so does

@@ -3,7 +3,6 @@
 #![allow(dead_code)]
 
 use nalgebra::Point3;
-use std::collections::HashMap;
 
 /// A mesh: positions and CCW triangles.
 pub struct TestMesh {
@@ -46,65 +45,7 @@ pub fn grid(n: usize) -> TestMesh {
 
 /// A unit icosphere subdivided `levels` times (10·4^levels + 2 vertices), outward CCW.
 pub fn icosphere(levels: usize) -> TestMesh {
-    let t = (1.0 + 5f64.sqrt()) / 2.0;
-    let mut positions: Vec<Point3<f64>> = [
-        [-1.0, t, 0.0],
-        [1.0, t, 0.0],
-        [-1.0, -t, 0.0],
-        [1.0, -t, 0.0],
-        [0.0, -1.0, t],
-        [0.0, 1.0, t],
-        [0.0, -1.0, -t],
-        [0.0, 1.0, -t],
-        [t, 0.0, -1.0],
-        [t, 0.0, 1.0],
-        [-t, 0.0, -1.0],
-        [-t, 0.0, 1.0],
-    ]
-    .iter()
-    .map(|p| Point3::from(nalgebra::Vector3::new(p[0], p[1], p[2]).normalize()))
-    .collect();
-    let mut triangles: Vec<[u32; 3]> = vec![
-        [0, 11, 5],
-        [0, 5, 1],
-        [0, 1, 7],
-        [0, 7, 10],
-        [0, 10, 11],
-        [1, 5, 9],
-        [5, 11, 4],
-        [11, 10, 2],
-        [10, 7, 6],
-        [7, 1, 8],
-        [3, 9, 4],
-        [3, 4, 2],
-        [3, 2, 6],
-        [3, 6, 8],
-        [3, 8, 9],
-        [4, 9, 5],
-        [2, 4, 11],
-        [6, 2, 10],
-        [8, 6, 7],
-        [9, 8, 1],
-    ];
-    for _ in 0..levels {
-        let mut mid: HashMap<(u32, u32), u32> = HashMap::new();
-        let mut next = Vec::with_capacity(triangles.len() * 4);
-        for tri in &triangles {
-            let m: [u32; 3] = std::array::from_fn(|k| {
-                let (a, b) = (tri[k], tri[(k + 1) % 3]);
-                *mid.entry((a.min(b), a.max(b))).or_insert_with(|| {
-                    let p = nalgebra::center(&positions[a as usize], &positions[b as usize]);
-                    positions.push(Point3::from(p.coords.normalize()));
-                    (positions.len() - 1) as u32
-                })
-            });
-            next.push([tri[0], m[0], m[2]]);
-            next.push([tri[1], m[1], m[0]]);
-            next.push([tri[2], m[2], m[1]]);
-            next.push([m[0], m[1], m[2]]);
-        }
-        triangles = next;
-    }
+    let (positions, triangles) = contact_skin::scenes::icosphere(levels as u32);
     TestMesh {
         positions,
         triangles,

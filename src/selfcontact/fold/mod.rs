@@ -19,8 +19,8 @@ use super::bulge_guard::{bulge_scales, BulgeStep, TOLERANCE};
 use super::crease::{crease_cut, Crease, CreaseInput};
 use super::turn_guard::{displacement_scales, GuardInput, TurnReference};
 use crate::contact::{
-    inside_from, resolve_self_pair, Contact, ContactSide, DirectionMode, InsideTwice, PairParams,
-    SideFrame,
+    inside_from, resolve_self_pair, Contact, ContactSide, DirectionMode, InsideTwice, PairOutcome,
+    PairParams, SideFrame,
 };
 use crate::deform::region::{bulge_height, shape_region};
 use crate::deform::volume::RootKind;
@@ -163,15 +163,38 @@ pub struct FoldOutput {
     pub timings: FoldTimings,
 }
 
-/// The fold in one frame, once [`FoldPre::detect`] found it intersecting itself: `None` when
-/// the truncated parts turn out not to be in contact, or when neither side has a contact zone
-/// (the time spent finding that out is then not reported in any fold's timings).
+/// What a fold detected intersecting itself amounts to in one frame.
+#[derive(Clone, Debug)]
+pub enum FoldOutcome {
+    /// The truncated parts turn out not to be in contact, or neither side has a contact zone
+    /// (the time spent finding that out is not reported in any fold's timings).
+    Apart,
+    /// Separated regions ([`crate::selfcontact::regions::PairRegions::separated`]) that
+    /// intersect with no direction: Eq. 2's normals cancel out over both intersection
+    /// regions (a symmetric crossing, [`crate::contact::PairOutcome::NoDirection`]). Left as
+    /// they were; the pass counts them with the folds the skeleton gives no direction.
+    NoDirection,
+    /// The fold, resolved.
+    Resolved(Box<FoldOutput>),
+}
+
+impl FoldOutcome {
+    /// The resolved fold, if any.
+    pub fn into_output(self) -> Option<FoldOutput> {
+        match self {
+            FoldOutcome::Resolved(out) => Some(*out),
+            FoldOutcome::Apart | FoldOutcome::NoDirection => None,
+        }
+    }
+}
+
+/// The fold in one frame, once [`FoldPre::detect`] found it intersecting itself.
 pub fn resolve_detected(
     pre: &FoldPre,
     detection: &Detection,
     geometry: &FoldInput,
     params: &FoldParams,
-) -> Result<Option<FoldOutput>, FoldError> {
+) -> Result<FoldOutcome, FoldError> {
     let mut winding = pre.body_tree();
     resolve_detected_in(pre, detection, geometry, params, &mut winding)
 }
@@ -187,7 +210,7 @@ pub fn resolve_detected_in(
     geometry: &FoldInput,
     params: &FoldParams,
     winding: &mut WindingNumber,
-) -> Result<Option<FoldOutput>, FoldError> {
+) -> Result<FoldOutcome, FoldError> {
     let FoldInput {
         positions,
         normals,
@@ -222,8 +245,10 @@ pub fn resolve_detected_in(
     };
     let contact = truncated_contact(&truncated, positions, normals, mode, params, tree)?;
     timings.contact = laps.next();
-    let Some(mut contact) = contact else {
-        return Ok(None);
+    let mut contact = match contact {
+        PairOutcome::Contact(contact) => *contact,
+        PairOutcome::NoDirection => return Ok(FoldOutcome::NoDirection),
+        PairOutcome::Apart => return Ok(FoldOutcome::Apart),
     };
     // The direction the regions deform along: W1's outward one, the contact's own for
     // separated regions.
@@ -240,7 +265,7 @@ pub fn resolve_detected_in(
     // the crease can extend zones, not create them, and the rest of the fold only moved
     // vertices by round-off (at most 2.3e-16 on CesiumMan), at 0.6 ms per robot frame.
     if contact.sides.iter().all(|s| s.zone.vertices.is_empty()) {
-        return Ok(None);
+        return Ok(FoldOutcome::Apart);
     }
     if let Some(tree) = tree.filter(|_| !separated) {
         let crease_input = CreaseVertices {
@@ -265,7 +290,7 @@ pub fn resolve_detected_in(
     timings.volume = laps.next();
     let gamma_h = params.deform.gamma * blended.h;
     timings.stages = table1_stages(&timings, &contact.timings, [&s1.timings, &s2.timings]);
-    Ok(Some(FoldOutput {
+    Ok(FoldOutcome::Resolved(Box::new(FoldOutput {
         region_positions: [own_positions(&s1, gamma_h), own_positions(&s2, gamma_h)],
         positions: blended.positions,
         crease,
@@ -280,7 +305,7 @@ pub fn resolve_detected_in(
         guarded: blended.guarded,
         bulge_guarded: blended.bulge_guarded,
         timings,
-    }))
+    })))
 }
 
 /// The posed body of one frame, as a fold reads it.
@@ -559,7 +584,7 @@ fn truncated_contact(
     direction: DirectionMode,
     params: &FoldParams,
     tree: Option<&InsideTwice>,
-) -> Result<Option<Contact>, FoldError> {
+) -> Result<PairOutcome, FoldError> {
     let posed = truncated.posed(positions)?;
     let side = |k: usize| SideFrame {
         mesh: &posed[k],
