@@ -1318,31 +1318,50 @@ impl ContactConfig {
         derived: &[(usize, String)],
     ) -> Result<SelfContactSettings, ConfigError> {
         let spec = self.self_contact.clone().unwrap_or_default();
+        let params = self.fold_params(&spec, rig, derived)?;
+        let (passes, max_passes) = sweeps(&spec);
+        let (directions, pair_params) = self.pair_settings(&spec, &params, derived)?;
+        for (j, sep) in spec.separated.iter().enumerate() {
+            for (k, side) in sep.sides.iter().enumerate() {
+                if side.is_empty() {
+                    return Err(self.invalid(
+                        format!("self_contact.separated[{j}].sides[{k}]"),
+                        "is empty",
+                    ));
+                }
+            }
+        }
+        Ok(SelfContactSettings {
+            enabled: self.self_contact_enabled(),
+            regions: self.self_contact_regions(),
+            params,
+            directions,
+            pair_params,
+            passes,
+            max_passes,
+            separated: spec.separated.iter().map(|s| s.sides.clone()).collect(),
+            separated_from_skeleton: spec.separated_from_skeleton.unwrap_or(true),
+        })
+    }
+
+    /// Every fold's parameters: the defaults with `[self_contact]`'s values; the extent from
+    /// `extent`, else `extent_factor` times the largest rest size of a body with a `derived`
+    /// pair (of any body when none has one), else per joint (`joint_extent`).
+    fn fold_params(
+        &self,
+        spec: &SelfContactSpec,
+        rig: &Rig,
+        derived: &[(usize, String)],
+    ) -> Result<FoldParams, ConfigError> {
         let mut params = FoldParams::default();
-        if let Some(k) = spec.stiffness {
-            params.stiffness_1 = k;
-        }
-        if let Some(t) = spec.tau {
-            params.tau = t;
-        }
-        if let Some(a) = spec.safeguard_angle {
-            params.safeguard_angle = a;
-        }
-        if let Some(g) = spec.gamma {
-            params.deform.gamma = g;
-        }
-        if let Some(w) = spec.omega {
-            params.deform.omega = w;
-        }
-        if let Some(guard) = spec.turn_guard {
-            params.turn_guard = guard;
-        }
-        if let Some(guard) = spec.bulge_guard {
-            params.bulge_guard = guard;
-        }
-        if let Some(free) = spec.free_isolated_crease {
-            params.free_isolated_crease = free;
-        }
+        set(&mut params.stiffness_1, spec.stiffness);
+        set(&mut params.tau, spec.tau);
+        set(&mut params.safeguard_angle, spec.safeguard_angle);
+        set(&mut params.deform.gamma, spec.gamma);
+        set(&mut params.deform.omega, spec.omega);
+        set(&mut params.turn_guard, spec.turn_guard);
+        set(&mut params.bulge_guard, spec.bulge_guard);
+        set(&mut params.free_isolated_crease, spec.free_isolated_crease);
         if let Some(k) = spec.joint_extent {
             params.joint_extent = Some(k);
         }
@@ -1367,15 +1386,18 @@ impl ContactConfig {
             params.deform.extent = extent;
             params.joint_extent = None;
         }
-        // `max_passes` alone bounds the default count too; `passes` alone is exact.
-        let passes = spec
-            .passes
-            .unwrap_or(DEFAULT_FOLD_PASSES.min(spec.max_passes.unwrap_or(usize::MAX)));
-        let max_passes = match (spec.passes, spec.max_passes) {
-            (_, Some(max)) => max,
-            (Some(_), None) => passes,
-            (None, None) => DEFAULT_MAX_FOLD_PASSES,
-        };
+        Ok(params)
+    }
+
+    /// The `[[self_contact.pair]]` tables checked against the `derived` pair names: each
+    /// pair's direction source (fixed directions normalized; the section's `direction` for the
+    /// pairs that set none) and the parameters of those that set their own.
+    fn pair_settings(
+        &self,
+        spec: &SelfContactSpec,
+        params: &FoldParams,
+        derived: &[(usize, String)],
+    ) -> Result<PairSettings, ConfigError> {
         let mut directions = Vec::with_capacity(derived.len());
         let mut pair_params = Vec::new();
         for (j, p) in spec.pairs.iter().enumerate() {
@@ -1388,7 +1410,7 @@ impl ContactConfig {
                     available: list_pairs(derived),
                 });
             }
-            if let Some(own) = p.params(&params) {
+            if let Some(own) = p.params(params) {
                 pair_params.push((p.name.clone(), own));
             }
             let Some(SelfDirection(source)) = p.direction else {
@@ -1413,28 +1435,32 @@ impl ContactConfig {
                 }
             }
         }
-        for (j, sep) in spec.separated.iter().enumerate() {
-            for (k, side) in sep.sides.iter().enumerate() {
-                if side.is_empty() {
-                    return Err(self.invalid(
-                        format!("self_contact.separated[{j}].sides[{k}]"),
-                        "is empty",
-                    ));
-                }
-            }
-        }
-        Ok(SelfContactSettings {
-            enabled: self.self_contact_enabled(),
-            regions: self.self_contact_regions(),
-            params,
-            directions,
-            pair_params,
-            passes,
-            max_passes,
-            separated: spec.separated.iter().map(|s| s.sides.clone()).collect(),
-            separated_from_skeleton: spec.separated_from_skeleton.unwrap_or(true),
-        })
+        Ok((directions, pair_params))
     }
+}
+
+/// Per pair name, its direction source and (for those that set their own) its parameters.
+type PairSettings = (Vec<(String, DirectionSource)>, Vec<(String, FoldParams)>);
+
+/// `*slot = value` when the configuration sets it.
+fn set<T: Copy>(slot: &mut T, value: Option<T>) {
+    if let Some(v) = value {
+        *slot = v;
+    }
+}
+
+/// Sweeps per frame and their most: `max_passes` alone bounds the default count too;
+/// `passes` alone is exact.
+fn sweeps(spec: &SelfContactSpec) -> (usize, usize) {
+    let passes = spec
+        .passes
+        .unwrap_or(DEFAULT_FOLD_PASSES.min(spec.max_passes.unwrap_or(usize::MAX)));
+    let max_passes = match (spec.passes, spec.max_passes) {
+        (_, Some(max)) => max,
+        (Some(_), None) => passes,
+        (None, None) => DEFAULT_MAX_FOLD_PASSES,
+    };
+    (passes, max_passes)
 }
 
 /// `lips/head-jaw, ...` (at most 40 listed), or `none`.

@@ -252,6 +252,55 @@ fn describe_self_contact(
     welded: &[WeldedMesh],
 ) -> Result<SelfContactInfo, config::ConfigError> {
     let cfg = ContactConfig::for_rig(path, explicit)?.unwrap_or_default();
+    let found = pairs_as_the_pass_finds_them(&cfg, rig, welded)?;
+    let settings = &found.settings;
+    let f = &settings.params;
+    // The rest pose as the pass sees it (skinned at rest: node transforms included).
+    let pre = contact_skin::frames::Precomputed::new(rig, contact_skin::skinning::Method::Lbs);
+    let rest = contact_skin::frames::welded_positions(rig, &pre, None, 0.0);
+    let pairs = found
+        .regions
+        .iter()
+        .map(|r| pair_info(r, settings, rig, (&pre, &rest)))
+        .collect();
+    Ok(SelfContactInfo {
+        joint_extent: f.joint_extent,
+        enabled: settings.enabled,
+        passes: settings.passes,
+        max_passes: settings.max_passes,
+        configured: cfg.self_contact.is_some(),
+        threshold: settings.regions.threshold,
+        grow_rings: settings.regions.grow_rings,
+        stiffness: f.stiffness_1,
+        tau: f.tau,
+        safeguard_angle: f.safeguard_angle,
+        extent: f.deform.extent,
+        gamma: f.deform.gamma,
+        omega: f.deform.omega,
+        separated_from_skeleton: settings.separated_from_skeleton,
+        pairs,
+        error: found.error,
+        skipped: found.skipped,
+    })
+}
+
+/// The self-contact pass's working regions as `pose` would build them, with the resolved
+/// settings, the pairs left out and why, and the first error met (the listing goes on
+/// without the pairs it concerns).
+struct FoundPairs {
+    regions: Vec<PairRegions>,
+    settings: config::SelfContactSettings,
+    skipped: Vec<String>,
+    error: Option<String>,
+}
+
+/// The parent/child pairs from the skin weights, then the configured and the skeleton's
+/// separated regions, as [`contact_skin::selfcontact::pass::SelfContactPass`] is built.
+fn pairs_as_the_pass_finds_them(
+    cfg: &ContactConfig,
+    rig: &Rig,
+    welded: &[WeldedMesh],
+) -> Result<FoundPairs, config::ConfigError> {
     let (mut regions, skipped, mut error): (Vec<PairRegions>, Vec<String>, Option<String>) =
         match derive_pairs_reporting(rig, welded, &cfg.self_contact_regions()) {
             Ok((r, skipped)) => (r, skipped, None),
@@ -288,86 +337,78 @@ fn describe_self_contact(
             }
         }
     }
+    Ok(FoundPairs {
+        regions,
+        settings,
+        skipped,
+        error,
+    })
+}
+
+/// One pair's listing: its regions `r`, its resolved parameters (its own or the pass's) and
+/// its sizes on the rest pose (`rest`: the welded positions `pre` skins at rest).
+fn pair_info(
+    r: &PairRegions,
+    settings: &config::SelfContactSettings,
+    rig: &Rig,
+    (pre, rest): (
+        &contact_skin::frames::Precomputed,
+        &[Vec<nalgebra::Point3<f64>>],
+    ),
+) -> SelfPairInfo {
+    let p = &r.pair;
+    let f = &settings.params;
     let node = |n: usize| {
         rig.nodes
             .get(n)
             .and_then(|x| x.name.clone())
             .unwrap_or_else(|| format!("node{n}"))
     };
-    let f = &settings.params;
-    // The rest pose as the pass sees it (skinned at rest: node transforms included).
-    let pre = contact_skin::frames::Precomputed::new(rig, contact_skin::skinning::Method::Lbs);
-    let rest = contact_skin::frames::welded_positions(rig, &pre, None, 0.0);
-    let pairs = regions
+    let joint_size = rest
+        .get(p.body)
+        .zip(pre.welded.get(p.body))
+        .map_or(f64::NAN, |(x, w)| r.joint_size(x, &w.triangles));
+    let source = settings
+        .directions
         .iter()
-        .map(|r| {
-            let p = &r.pair;
-            let joint_size = rest
-                .get(p.body)
-                .zip(pre.welded.get(p.body))
-                .map_or(f64::NAN, |(x, w)| r.joint_size(x, &w.triangles));
-            let source = settings
-                .directions
-                .iter()
-                .find(|(n, _)| *n == p.name)
-                .map_or(DirectionSource::Skeleton, |(_, d)| *d);
-            let own = settings
-                .pair_params
-                .iter()
-                .find(|(n, _)| *n == p.name)
-                .map(|(_, q)| q);
-            let q = own.unwrap_or(f);
-            SelfPairInfo {
-                tau: q.tau,
-                gamma: q.deform.gamma,
-                omega: q.deform.omega,
-                free_isolated_crease: q.free_isolated_crease,
-                own_params: own.is_some(),
-                joint_size,
-                extent: f.joint_extent.map_or(f.deform.extent, |k| k * joint_size),
-                body: p.body,
-                body_name: rig.bodies[p.body].name.clone(),
-                name: p.name.clone(),
-                parent: node(p.parent_joint),
-                child: node(p.child_joint),
-                shared: r.shared.len(),
-                grow_rings: r.grow_rings,
-                reason: r.reason.clone(),
-                direction: source.fixed(),
-                direction_source: if r.separated() {
-                    "normals"
-                } else {
-                    source.label()
-                },
-                separated: r.separated(),
-                rest_fold_degrees: pre
-                    .welded
-                    .get(p.body)
-                    .and_then(|w| BoneAxes::new(rig, w, r).rest_fold)
-                    .map(|f| f.angle.to_degrees()),
-                source,
-            }
-        })
-        .collect();
-    Ok(SelfContactInfo {
-        joint_extent: f.joint_extent,
-        enabled: settings.enabled,
-        passes: settings.passes,
-        max_passes: settings.max_passes,
-        configured: cfg.self_contact.is_some(),
-        threshold: settings.regions.threshold,
-        grow_rings: settings.regions.grow_rings,
-        stiffness: f.stiffness_1,
-        tau: f.tau,
-        safeguard_angle: f.safeguard_angle,
-        extent: f.deform.extent,
-        gamma: f.deform.gamma,
-        omega: f.deform.omega,
-        separated_from_skeleton: settings.separated_from_skeleton,
-        pairs,
-        error,
-        skipped,
-    })
+        .find(|(n, _)| *n == p.name)
+        .map_or(DirectionSource::Skeleton, |(_, d)| *d);
+    let own = settings
+        .pair_params
+        .iter()
+        .find(|(n, _)| *n == p.name)
+        .map(|(_, q)| q);
+    let q = own.unwrap_or(f);
+    SelfPairInfo {
+        tau: q.tau,
+        gamma: q.deform.gamma,
+        omega: q.deform.omega,
+        free_isolated_crease: q.free_isolated_crease,
+        own_params: own.is_some(),
+        joint_size,
+        extent: f.joint_extent.map_or(f.deform.extent, |k| k * joint_size),
+        body: p.body,
+        body_name: rig.bodies[p.body].name.clone(),
+        name: p.name.clone(),
+        parent: node(p.parent_joint),
+        child: node(p.child_joint),
+        shared: r.shared.len(),
+        grow_rings: r.grow_rings,
+        reason: r.reason.clone(),
+        direction: source.fixed(),
+        direction_source: if r.separated() {
+            "normals"
+        } else {
+            source.label()
+        },
+        separated: r.separated(),
+        rest_fold_degrees: pre
+            .welded
+            .get(p.body)
+            .and_then(|w| BoneAxes::new(rig, w, r).rest_fold)
+            .map(|f| f.angle.to_degrees()),
+        source,
+    }
 }
 
 fn print_self_contact(s: &SelfContactInfo) {

@@ -652,25 +652,33 @@ impl SelfContactPass {
             }
             FoldOutcome::Apart => return Ok(false),
         };
-        out.unbalanced += usize::from(o.unbalanced);
-        if !o.unbalanced {
-            out.guarded += o.guarded;
-            out.bulge_guarded += o.bulge_guarded;
-        }
-        out.timings += o.timings;
-        let moved = !o.unbalanced;
         bodies.replace(fold.body, &o.positions);
-        out.folds.push(FoldReport {
+        Ok(out.record(fold, direction, *o))
+    }
+}
+
+impl SelfPassOutput {
+    /// Adds `fold`'s output `o` (resolved along `direction`, unless its regions are separated)
+    /// to the frame's report; whether it moved the body (not when it was left unbalanced).
+    fn record(&mut self, fold: &Fold, direction: Vector3<f64>, o: FoldOutput) -> bool {
+        self.unbalanced += usize::from(o.unbalanced);
+        if !o.unbalanced {
+            self.guarded += o.guarded;
+            self.bulge_guarded += o.bulge_guarded;
+        }
+        self.timings += o.timings;
+        let moved = !o.unbalanced;
+        self.folds.push(FoldReport {
             body: fold.body,
-            name: name.clone(),
+            name: fold.pre.regions.pair.name.clone(),
             direction: if fold.pre.regions.separated() {
                 o.contact.sides[0].direction
             } else {
                 direction
             },
-            output: *o,
+            output: o,
         });
-        Ok(moved)
+        moved
     }
 }
 
