@@ -1692,7 +1692,7 @@ fn bad_input_gives_typed_errors() {
     nan[0][7].y = f64::NAN;
     assert!(matches!(
         pass.run(&l.rig, &pose, &mut nan),
-        Err(SelfPassError::Fold { .. })
+        Err(SelfPassError::NonFinite { body: 0, vertex: 7 })
     ));
     let mut none: Vec<Vec<Point3<f64>>> = Vec::new();
     assert!(matches!(

@@ -253,6 +253,8 @@ pub struct FrameDiagnostics {
     pub folds_without_direction: usize,
     /// Folds left unresolved because no bulge could keep the volume without a spike.
     pub folds_unbalanced: usize,
+    /// Folds that failed and were left as they were, with what failed.
+    pub folds_failed: Vec<contact_skin::selfcontact::pass::FailedFold>,
     /// Wall time of the self-contact pass (s; 0 when it is off).
     pub self_contact_s: f64,
 }
@@ -436,6 +438,10 @@ pub fn diagnostics(rig: &Rig, pre: &Precomputed, c: &ContactFrame) -> FrameDiagn
         folds,
         folds_without_direction: c.self_output.as_ref().map_or(0, |s| s.no_direction),
         folds_unbalanced: c.self_output.as_ref().map_or(0, |s| s.unbalanced),
+        folds_failed: c
+            .self_output
+            .as_ref()
+            .map_or(Vec::new(), |s| s.failed.clone()),
         self_contact_s: c.self_wall,
     }
 }

@@ -11,6 +11,7 @@ use contact_skin::output::{self, glb, obj, Staged};
 use contact_skin::pass::StageTimings;
 use contact_skin::rig::{self, Rig};
 use contact_skin::selfcontact::fold::FoldTimings;
+use contact_skin::selfcontact::pass::FailedFold;
 use contact_skin::skinning::Method;
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
@@ -163,6 +164,11 @@ struct Summary {
     /// Folds left unresolved because no bulge could keep the volume without a spike, summed
     /// over the frames.
     folds_unbalanced: usize,
+    /// Folds that failed (a factorization, the intersection, …) and were left as they were
+    /// while the pass went on, summed over the frames (a warning naming the first).
+    folds_failed: usize,
+    /// The first fold that failed: `frame N, fold NAME: error`.
+    first_fold_failure: Option<String>,
     /// Vertices whose displacement the turn guard scaled back so that no face turns over,
     /// summed over the folds and frames.
     vertices_guarded: usize,
@@ -256,6 +262,7 @@ struct FrameStats {
     fold_timings: Option<(FoldTimings, f64)>,
     folds_without_direction: usize,
     folds_unbalanced: usize,
+    folds_failed: Vec<FailedFold>,
     vertices_guarded: usize,
     bulges_guarded: usize,
     sweeps: usize,
@@ -442,6 +449,8 @@ fn summarize(
         folds,
         folds_without_direction: stats.iter().map(|s| s.folds_without_direction).sum(),
         folds_unbalanced: stats.iter().map(|s| s.folds_unbalanced).sum(),
+        folds_failed: stats.iter().map(|s| s.folds_failed.len()).sum(),
+        first_fold_failure: first_fold_failure(stats),
         vertices_guarded: stats.iter().map(|s| s.vertices_guarded).sum(),
         bulges_guarded: stats.iter().map(|s| s.bulges_guarded).sum(),
         sweeps_max: stats.iter().map(|s| s.sweeps).max().unwrap_or(0),
@@ -452,8 +461,23 @@ fn summarize(
     }
 }
 
+/// `frame N, fold NAME: error` of the first fold that failed.
+fn first_fold_failure(stats: &[FrameStats]) -> Option<String> {
+    stats.iter().enumerate().find_map(|(i, s)| {
+        let f = s.folds_failed.first()?;
+        Some(format!("frame {i}, fold {}: {}", f.name, f.error))
+    })
+}
+
 fn print_summary(s: &Summary, a: &Args) -> CliResult {
     warn_stale(s, a);
+    if let Some(first) = &s.first_fold_failure {
+        eprintln!(
+            "warning: {} self-contact fold(s) failed and were left as skinned, the others \
+             resolved (first: {first})",
+            s.folds_failed
+        );
+    }
     if s.contacts_without_direction > 0 {
         eprintln!(
             "warning: {} time(s) two bodies intersected with no direction to resolve them \
@@ -756,6 +780,7 @@ fn compute_unchecked(
             fold_timings: None,
             folds_without_direction: 0,
             folds_unbalanced: 0,
+            folds_failed: Vec::new(),
             vertices_guarded: 0,
             bulges_guarded: 0,
             sweeps: 0,
@@ -784,6 +809,7 @@ fn compute_unchecked(
         fold_timings: so.map(|s| (s.timings, cf.self_wall)),
         folds_without_direction: so.map_or(0, |s| s.no_direction),
         folds_unbalanced: so.map_or(0, |s| s.unbalanced),
+        folds_failed: so.map_or(Vec::new(), |s| s.failed.clone()),
         vertices_guarded: so.map_or(0, |s| s.guarded),
         bulges_guarded: so.map_or(0, |s| s.bulge_guarded),
         sweeps: so.map_or(0, |s| s.sweeps),

@@ -75,6 +75,21 @@ pub struct SelfPassOutput {
     pub bulge_guarded: usize,
     /// Sweeps over the folds run this frame (see [`SelfContactPass::with_max_passes`]).
     pub sweeps: usize,
+    /// Folds that failed this frame (a [`FoldError`]: a factorization that found its matrix
+    /// not positive definite, an intersection the exact predicates could not place, …), each
+    /// left as it was, as a refused fold is, while the pass went on with the others. Until
+    /// 2026-12-05 one such fold stopped the whole run; the inputs found to make one fail are
+    /// broken meshes (a triangle list read as a strip) and rigs scaled to `1e-30`.
+    pub failed: Vec<FailedFold>,
+}
+
+/// A fold that failed in a frame ([`SelfPassOutput::failed`]).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct FailedFold {
+    /// The pair.
+    pub name: String,
+    /// What failed.
+    pub error: String,
 }
 
 /// Self-contact of every joint pair of a rig, precomputed once.
@@ -117,7 +132,16 @@ pub enum SelfPassError {
     /// Precomputation.
     #[error(transparent)]
     Regions(#[from] SelfContactError),
-    /// A fold in a frame.
+    /// A non-finite input position (checked before anything moves).
+    #[error("body {body}: position of welded vertex {vertex} is not finite")]
+    NonFinite {
+        /// The body.
+        body: usize,
+        /// Its welded vertex.
+        vertex: usize,
+    },
+    /// A fold's precomputation (in a frame, a failed fold is reported in
+    /// [`SelfPassOutput::failed`] instead).
     #[error("fold {name}: {source}")]
     Fold {
         /// The pair.
@@ -361,9 +385,11 @@ impl SelfContactPass {
 
     /// Resolves every fold of a frame in place (`positions`: welded positions per body, `pose`
     /// the frame's skeleton pose, one world matrix per node of `rig`; a mismatch in either is
-    /// [`SelfPassError::Mismatch`], before anything moves). The turn guard's second reference
-    /// is linear blend skinning's normals in `pose`; [`SelfContactPass::run_with_normals`]
-    /// takes the normals of the skinning that made `positions` instead.
+    /// [`SelfPassError::Mismatch`], a non-finite position [`SelfPassError::NonFinite`], before
+    /// anything moves). A fold that fails is left as it was and reported
+    /// ([`SelfPassOutput::failed`]); the others go on. The turn guard's second reference is
+    /// linear blend skinning's normals in `pose`; [`SelfContactPass::run_with_normals`] takes
+    /// the normals of the skinning that made `positions` instead.
     pub fn run(
         &self,
         rig: &Rig,
@@ -445,7 +471,15 @@ impl SelfContactPass {
                     bodies,
                     left_penetrating: &further.left,
                 };
-                let moved_now = self.sweep_fold(fold, frame, &mut frame_input, &mut out)?;
+                let moved_now = match self.sweep_fold(fold, frame, &mut frame_input, &mut out) {
+                    Ok(moved) => moved,
+                    Err(SelfPassError::Fold { name, source }) => {
+                        let error = source.to_string();
+                        out.failed.push(FailedFold { name, error });
+                        false
+                    }
+                    Err(e) => return Err(e),
+                };
                 if moved_now && self.max_passes > self.passes {
                     add_shared_region(&mut further.reach[fold.body], &fold.pre.regions);
                     further.moved[fold.body] = true;
@@ -496,6 +530,9 @@ impl SelfContactPass {
                     "body {b}: {} positions, the rig has {n} welded vertices",
                     p.len()
                 )));
+            }
+            if let Some(vertex) = p.iter().position(|x| !x.iter().all(|c| c.is_finite())) {
+                return Err(SelfPassError::NonFinite { body: b, vertex });
             }
         }
         Ok(())
