@@ -593,9 +593,11 @@ fn with_skeleton_pairs(prepared: Prepared) -> Prepared {
 
 /// CesiumMan's triangle list read as a strip (`mode = 5`, one edit of the file's JSON; the
 /// fuzzing of 2026-12-05): a broken mesh on which some folds' heat or stiffness matrix is not
-/// positive definite. Those folds fail and are left as they were, reported with their error,
-/// while the pass resolves the others (a fold may fail in one sweep and resolve in the next,
-/// once the others moved its vertices); until 2026-12-05 the first failure stopped the run.
+/// positive definite and others entangled (more candidate face pairs than
+/// `bvh::PAIRS_PER_FACE` allows). Those folds fail and are left as they were, reported with
+/// their error, while the pass resolves the others (a fold may fail in one sweep and resolve
+/// in the next, once the others moved its vertices); until 2026-12-05 the first failure
+/// stopped the run.
 #[test]
 fn a_failing_fold_is_left_as_skinned_and_the_others_resolve() {
     let Some(path) = sample("CesiumMan/CesiumMan.glb") else {
@@ -610,7 +612,8 @@ fn a_failing_fold_is_left_as_skinned_and_the_others_resolve() {
     assert!(!p.report.folds.is_empty(), "the others resolve");
     let pairs = prepared.pass.pairs();
     for f in failed {
-        assert!(f.error.contains("factorization"), "{f:?}");
+        let known = ["factorization", "entangled"];
+        assert!(known.iter().any(|k| f.error.contains(k)), "{f:?}");
         assert!(pairs.iter().any(|(_, name)| *name == f.name), "{f:?}");
     }
     let finite =

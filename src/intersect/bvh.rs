@@ -6,6 +6,7 @@
 //! triangles that touch always have overlapping boxes, which keeps the candidate pairs
 //! consistent with the exact predicates.
 
+use super::IntersectError;
 use nalgebra::{Point3, Vector3};
 use rayon::prelude::*;
 
@@ -16,6 +17,19 @@ const BINS: usize = 12;
 /// Candidate pairs from which their visits run in parallel (a rayon call costs tens of
 /// microseconds on a busy machine, a pair test a fraction of one).
 const PARALLEL_PAIRS: usize = 2048;
+
+/// Candidate face pairs a bounded query ([`TriangleBvh::overlapping_pairs_bounded`],
+/// [`TriangleBvh::pairs_between_sets`]) collects at most, per face of its two trees (and at
+/// least [`MIN_PAIR_BUDGET`]). Two surfaces meeting along curves give each face a few
+/// candidates near the curves and none elsewhere: at most 1.06 pairs per face in every
+/// query of the committed rigs, CesiumMan and Fox with LBS, DQS and CoR input (2026-12-05).
+/// Broken rigs found by fuzzing (a joint collapsed onto a line, positions read as bytes, every
+/// triangle listed twice, the joints permuted, projective node matrices) reach 8.5 to 132 and
+/// took 10 s to minutes per frame in the self-contact pass; past the budget the query stops.
+pub const PAIRS_PER_FACE: usize = 8;
+
+/// The smallest budget of a bounded query, whatever its trees' sizes.
+pub const MIN_PAIR_BUDGET: usize = 4096;
 
 /// The lower of `a` and `b`, `a` when `b` is NaN (as `f64::min`, in one instruction where
 /// `f64::min`, which also passes over a NaN `a`, takes several).
@@ -380,7 +394,7 @@ impl TriangleBvh {
 
     /// All face pairs `(face of self, face of other)` whose boxes overlap, sorted.
     pub fn candidate_pairs(&self, other: &TriangleBvh) -> Vec<(u32, u32)> {
-        let mut pairs = self.pairs_in_tree_order(other);
+        let mut pairs = self.pairs_in_tree_order(other, usize::MAX);
         pairs.sort_unstable();
         pairs
     }
@@ -393,7 +407,24 @@ impl TriangleBvh {
         R: Send,
         F: Fn(u32, u32) -> Option<R> + Sync,
     {
-        visit_sorted(&self.pairs_in_tree_order(other), visit)
+        visit_sorted(&self.pairs_in_tree_order(other, usize::MAX), visit)
+    }
+
+    /// [`TriangleBvh::overlapping_pairs`], or [`IntersectError::Entangled`] as soon as the
+    /// candidates outnumber [`PAIRS_PER_FACE`] per face of both trees.
+    pub fn overlapping_pairs_bounded<R, F>(
+        &self,
+        other: &TriangleBvh,
+        visit: F,
+    ) -> Result<Vec<R>, IntersectError>
+    where
+        R: Send,
+        F: Fn(u32, u32) -> Option<R> + Sync,
+    {
+        let budget = pair_budget(self.faces.len() + other.faces.len());
+        let pairs = self.pairs_in_tree_order(other, budget);
+        entangled(&pairs, budget)?;
+        Ok(visit_sorted(&pairs, visit))
     }
 
     /// Marks which faces of the tree belong to set A (`label(face) == 1`) and to set B
@@ -431,7 +462,9 @@ impl TriangleBvh {
     /// pair. The same pairs as between two trees built over each set (node boxes here also
     /// cover faces of neither set, which only costs box tests), with one refit for both sets;
     /// one tree over a body serves every joint's two sides (2021 Sec. 6 detection).
-    /// `None` when `sets` was not made by [`TriangleBvh::face_sets`] on a tree of this shape.
+    /// [`IntersectError::FaceSetsMismatch`] when `sets` was not made by
+    /// [`TriangleBvh::face_sets`] on a tree of this shape; bounded as
+    /// [`TriangleBvh::overlapping_pairs_bounded`] (the tree's faces counted twice).
     /// The faces' boxes are made from `positions` (those of the last refit; `triangles` the
     /// mesh's), so that the tree may be refit at its nodes only
     /// ([`TriangleBvh::refit_nodes_at`]).
@@ -441,37 +474,50 @@ impl TriangleBvh {
         positions: &[Point3<f64>],
         triangles: &[[u32; 3]],
         visit: F,
-    ) -> Option<Vec<R>>
+    ) -> Result<Vec<R>, IntersectError>
     where
         R: Send,
         F: Fn(u32, u32) -> Option<R> + Sync,
     {
         let fits =
             sets.node_bits.len() == self.nodes.len() && sets.slot_bits.len() == self.faces.len();
+        if !fits {
+            return Err(IntersectError::FaceSetsMismatch);
+        }
         let slot_box =
             |slot: usize, _: &Node| face_box(positions, &triangles[self.faces[slot] as usize]);
-        fits.then(|| visit_sorted(&self.pairs_where(self, sets, slot_box, slot_box), visit))
+        let budget = pair_budget(2 * self.faces.len());
+        let pairs = self.pairs_where(self, sets, (slot_box, slot_box), budget);
+        entangled(&pairs, budget)?;
+        Ok(visit_sorted(&pairs, visit))
     }
 
-    fn pairs_in_tree_order(&self, other: &TriangleBvh) -> Vec<(u32, u32)> {
+    /// The candidate pairs with `other` in tree order, more than `budget` of them only when the
+    /// traversal stopped there.
+    fn pairs_in_tree_order(&self, other: &TriangleBvh, budget: usize) -> Vec<(u32, u32)> {
         let (mine, theirs) = (
             |slot: usize, leaf: &Node| self.stored_box(slot, leaf),
             |slot: usize, leaf: &Node| other.stored_box(slot, leaf),
         );
-        self.pairs_where(other, &EveryFace, mine, theirs)
+        self.pairs_where(other, &EveryFace, (mine, theirs), budget)
     }
 
     /// The face pairs `(face of self, face of other)` whose leaf slots `filter` admits and whose
     /// boxes overlap, in tree order: node pairs with overlapping boxes split depth first (internal
     /// nodes split, both at once when both are internal), pruned by `filter`'s node test.
-    /// The leaf slots' boxes are `box_a(slot, leaf)` in this tree and `box_b` in `other`.
-    fn pairs_where(
+    /// The leaf slots' boxes are `box_a(slot, leaf)` in this tree and `box_b` in `other`. The
+    /// traversal stops once it holds more than `budget` pairs.
+    fn pairs_where<A, B>(
         &self,
         other: &TriangleBvh,
         filter: &impl PairFilter,
-        box_a: impl Fn(usize, &Node) -> Aabb,
-        box_b: impl Fn(usize, &Node) -> Aabb,
-    ) -> Vec<(u32, u32)> {
+        (box_a, box_b): (A, B),
+        budget: usize,
+    ) -> Vec<(u32, u32)>
+    where
+        A: Fn(usize, &Node) -> Aabb,
+        B: Fn(usize, &Node) -> Aabb,
+    {
         let mut pairs = Vec::new();
         let mut stack = Vec::with_capacity(64);
         let push = |stack: &mut Vec<(u32, u32)>, a: u32, b: u32| {
@@ -497,7 +543,10 @@ impl TriangleBvh {
                         box_a: &box_a,
                         box_b: &box_b,
                     };
-                    self.leaf_pairs(leaves, filter, &mut pairs)
+                    self.leaf_pairs(leaves, filter, &mut pairs);
+                    if pairs.len() > budget {
+                        break;
+                    }
                 }
                 (false, true) => {
                     push(&mut stack, na.first, b);
@@ -675,6 +724,19 @@ struct LeafPair<'t, A, B> {
 }
 
 /// Set A's bit in [`FaceSets`].
+/// The budget of a bounded query over trees of `faces` faces in all ([`PAIRS_PER_FACE`]).
+fn pair_budget(faces: usize) -> usize {
+    faces.saturating_mul(PAIRS_PER_FACE).max(MIN_PAIR_BUDGET)
+}
+
+/// [`IntersectError::Entangled`] when a bounded query stopped past its `budget`.
+fn entangled(pairs: &[(u32, u32)], budget: usize) -> Result<(), IntersectError> {
+    if pairs.len() > budget {
+        return Err(IntersectError::Entangled { budget });
+    }
+    Ok(())
+}
+
 const SET_A: u8 = 1;
 /// Set B's bit in [`FaceSets`].
 const SET_B: u8 = 2;
@@ -920,7 +982,45 @@ mod tests {
         assert!(nodes_only.candidate_pairs(&nodes_only).is_empty());
         let sets = nodes_only.face_sets(|f| 1 + (f % 2) as u8);
         let pairs = nodes_only.pairs_between_sets(&sets, &point, &tris, |x, y| Some((x, y)));
-        assert_eq!(pairs, Some(Vec::new()));
+        assert_eq!(pairs.ok(), Some(Vec::new()));
+    }
+
+    /// A bounded query answers as the unbounded one on surfaces that meet along curves (two
+    /// wavy grids crossing), and stops with [`IntersectError::Entangled`] on a crumpled mesh
+    /// (a grid whose vertices are scattered through a cube: every face crosses most others).
+    #[test]
+    fn bounded_queries_stop_on_entangled_surfaces() {
+        let (pa, ta) = wavy(12, 0.0, 0.0);
+        let (pb, tb) = wavy(12, 0.05, 1.0);
+        let all = |t: &[[u32; 3]]| (0..t.len() as u32).collect::<Vec<_>>();
+        let a = TriangleBvh::build(&pa, &ta, &all(&ta));
+        let b = TriangleBvh::build(&pb, &tb, &all(&tb));
+        let visit = |x: u32, y: u32| Some((x, y));
+        let unbounded = a.overlapping_pairs(&b, visit);
+        assert!(!unbounded.is_empty());
+        assert_eq!(a.overlapping_pairs_bounded(&b, visit).ok(), Some(unbounded));
+        let mut seed = 12345u64;
+        let mut next = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let crumpled: Vec<Point3<f64>> = pa
+            .iter()
+            .map(|_| Point3::new(next(), next(), next()))
+            .collect();
+        let c = TriangleBvh::build(&crumpled, &ta, &all(&ta));
+        assert!(c.overlapping_pairs(&c, visit).len() > pair_budget(2 * ta.len()));
+        assert!(matches!(
+            c.overlapping_pairs_bounded(&c, visit),
+            Err(IntersectError::Entangled { budget }) if budget == pair_budget(2 * ta.len())
+        ));
+        let sets = c.face_sets(|f| 1 + (f % 2) as u8);
+        assert!(matches!(
+            c.pairs_between_sets(&sets, &crumpled, &ta, visit),
+            Err(IntersectError::Entangled { .. })
+        ));
     }
 
     /// A wavy grid (open surface) of `2 n²` triangles.
@@ -1016,7 +1116,7 @@ mod tests {
         let empty = TriangleBvh::build(&grids.0, &grids.1, &[]);
         let sets_of_none = empty.face_sets(|_| 1);
         let none = empty.pairs_between_sets(&sets_of_none, &grids.0, &grids.1, |x, y| Some((x, y)));
-        assert_eq!(none, Some(Vec::new()));
+        assert_eq!(none.ok(), Some(Vec::new()));
         for label in labelings {
             let mesh = two_grids(0.0);
             let all: Vec<u32> = (0..mesh.1.len() as u32).collect();
@@ -1028,6 +1128,7 @@ mod tests {
             let corners = tree.leaf_corners(&mesh.1);
             let pairs = |t: &TriangleBvh, sets: &FaceSets, p: &[Point3<f64>]| {
                 t.pairs_between_sets(sets, p, &mesh.1, |x, y| Some((x, y)))
+                    .ok()
             };
             for positions in [mesh.0.clone(), two_grids(1.5).0] {
                 // Refit at the nodes only, the pairs are the same; the other queries take

@@ -115,14 +115,15 @@ impl Intersections {
 
     /// Intersections between the two parts of one mesh (2021 Sec. 6): only pairs across the
     /// parts count, and face pairs sharing a vertex are skipped. Both parts must be posed with
-    /// the same positions.
+    /// the same positions. Parts entangled rather than in contact are
+    /// [`IntersectError::Entangled`] ([`crate::intersect::bvh::PAIRS_PER_FACE`]).
     pub fn self_contact(part1: &PosedMesh, part2: &PosedMesh) -> Result<Self, IntersectError> {
         let same = std::ptr::eq(part1.positions(), part2.positions())
             && part1.triangles() == part2.triangles();
         if !same {
             return Err(IntersectError::SelfContactMismatch);
         }
-        Ok(compute(part1, part2, true))
+        compute_bounded(part1, part2)
     }
 
     /// [`Intersections::self_contact`] between two disjoint sets of one surface's faces,
@@ -131,15 +132,12 @@ impl Intersections {
     /// (the statistics' index-degenerate faces are the whole surface's).
     pub fn between_sets(mesh: &PosedMesh, sets: &FaceSets) -> Result<Self, IntersectError> {
         let counters = Counters::default();
-        let pairs = mesh
-            .bvh()
-            .pairs_between_sets(
-                sets,
-                mesh.positions(),
-                mesh.index().triangles(),
-                |fa, fb| pair_segment(mesh, fa, mesh, fb, true, &counters),
-            )
-            .ok_or(IntersectError::FaceSetsMismatch)?;
+        let pairs = mesh.bvh().pairs_between_sets(
+            sets,
+            mesh.positions(),
+            mesh.index().triangles(),
+            |fa, fb| pair_segment(mesh, fa, mesh, fb, true, &counters),
+        )?;
         let degenerate = mesh.index().index_degenerate_faces();
         Ok(assemble(pairs, degenerate, &counters))
     }
@@ -207,6 +205,17 @@ impl Counters {
 struct PairSegment {
     faces: [u32; 2],
     hits: [EdgeHit; 2],
+}
+
+/// [`compute`] for two parts of one mesh, its candidate pairs bounded
+/// ([`crate::intersect::TriangleBvh::overlapping_pairs_bounded`]).
+fn compute_bounded(a: &PosedMesh, b: &PosedMesh) -> Result<Intersections, IntersectError> {
+    let counters = Counters::default();
+    let pairs = a.bvh().overlapping_pairs_bounded(b.bvh(), |fa, fb| {
+        pair_segment(a, fa, b, fb, true, &counters)
+    })?;
+    let degenerate = a.index().index_degenerate_faces() + b.index().index_degenerate_faces();
+    Ok(assemble(pairs, degenerate, &counters))
 }
 
 fn compute(a: &PosedMesh, b: &PosedMesh, self_contact: bool) -> Intersections {

@@ -90,6 +90,16 @@ pub enum IntersectError {
         /// Positions given.
         got: usize,
     },
+    /// The surfaces are entangled rather than in contact: a bounded query
+    /// ([`bvh::PAIRS_PER_FACE`]) found more candidate face pairs than its budget.
+    #[error(
+        "the surfaces are entangled, not in contact: more than {budget} candidate face pairs \
+         (a broken or wildly posed mesh)"
+    )]
+    Entangled {
+        /// The query's budget.
+        budget: usize,
+    },
     /// A position is NaN or infinite.
     #[error("position {0} is not finite")]
     NonFinitePosition(u32),

@@ -73,7 +73,9 @@ pub fn bulge_scales(
     ];
     // Pairs whose paths' boxes overlap and whose bulge reaches past the tolerance: the first
     // time they meet.
-    let limits = trees[0].overlapping_pairs(&trees[1], |fa, fb| {
+    // Bounded: a bulge sweeping through far more of the other part than a fold's crease
+    // (a broken rig) is no bulge to guard, and the fold fails ([`IntersectError::Entangled`]).
+    let limits = trees[0].overlapping_pairs_bounded(&trees[1], |fa, fb| {
         let mut tri = [fa, fb].map(|f| bulge.triangles[f as usize]);
         tri.sort_unstable();
         let reach = largest_step(bulge, &tri);
@@ -87,7 +89,7 @@ pub fn bulge_scales(
         // output).
         let scale = onset(bulge, tri)? + bulge.tolerance / reach;
         (scale < 1.0).then_some((tri, scale))
-    });
+    })?;
     if limits.is_empty() {
         return Ok(None);
     }
