@@ -549,6 +549,51 @@ fn other_gltf_versions_are_refused() {
     assert!(load_json(&d).is_ok());
 }
 
+/// A chunk after the JSON and BIN chunks that declares more bytes than the file holds (4 GB
+/// here) is ignored, as before, but with a warning (found by fuzzing: ignored without a word);
+/// a well-formed extra chunk gives none.
+#[test]
+fn a_trailing_glb_chunk_past_the_end_is_a_warning() {
+    let mut json = serde_json::to_vec(&fixed_doc()).expect("json");
+    while json.len() % 4 != 0 {
+        json.push(b' ');
+    }
+    let glb = |extra: &[u8]| {
+        let bin = [0u8; 4];
+        let total = 12 + 8 + json.len() + 8 + bin.len() + extra.len();
+        let mut b = b"glTF".to_vec();
+        b.extend(2u32.to_le_bytes());
+        b.extend((total as u32).to_le_bytes());
+        b.extend((json.len() as u32).to_le_bytes());
+        b.extend(b"JSON");
+        b.extend(&json);
+        b.extend((bin.len() as u32).to_le_bytes());
+        b.extend(b"BIN\0");
+        b.extend(bin);
+        b.extend(extra);
+        b
+    };
+    let chunk = |declared: u32, body: &[u8]| {
+        let mut c = declared.to_le_bytes().to_vec();
+        c.extend(b"XTRA");
+        c.extend(body);
+        c
+    };
+    let fine = rig::load_from_bytes(Path::new("test.glb"), &glb(&chunk(4, &[1, 2, 3, 4])))
+        .expect("an extra chunk is ignored");
+    assert!(fine.warnings.is_empty(), "{:?}", fine.warnings);
+    let bogus = rig::load_from_bytes(Path::new("test.glb"), &glb(&chunk(0xffff_fff0, &[1, 2])))
+        .expect("still read");
+    assert!(
+        bogus
+            .warnings
+            .iter()
+            .any(|w| w.contains("\"XTRA\"") && w.contains("beyond the file's end")),
+        "{:?}",
+        bogus.warnings
+    );
+}
+
 /// A GLB whose header declares fewer bytes than the file holds is read by its chunks, with a
 /// warning; the exact length gives none (found by fuzzing: accepted silently).
 #[test]

@@ -123,6 +123,7 @@ fn load_impl(file: &Path, bytes: &[u8], folder: Option<&Path>) -> Result<Rig, Ri
     if let Some(w) = glb_length_warning(bytes) {
         warnings.push(w);
     }
+    warnings.extend(glb_chunk_warning(bytes));
     let (nodes, node_order) = read_nodes(file, doc)?;
     let skins = read_skins(&src, doc)?;
     let (bodies, extra_attributes) = read_bodies(&src, doc, &skins, &mut warnings)?;
@@ -178,6 +179,35 @@ fn glb_length_warning(bytes: &[u8]) -> Option<String> {
             bytes.len()
         )
     })
+}
+
+/// A GLB chunk that declares more bytes than the file holds after it. The JSON and BIN chunks
+/// are checked as they are read; a chunk after them (of a type the spec says to ignore) was
+/// ignored without a word even when it claimed 4 GB (found by fuzzing): a truncated or
+/// corrupt file. Read as before, with a warning naming the chunk.
+fn glb_chunk_warning(bytes: &[u8]) -> Option<String> {
+    if !bytes.starts_with(b"glTF") {
+        return None;
+    }
+    let word = |at: usize| -> Option<usize> {
+        let b = bytes.get(at..at + 4)?;
+        Some(u32::from_le_bytes(b.try_into().ok()?) as usize)
+    };
+    let mut at = 12;
+    while at + 8 <= bytes.len() {
+        let length = word(at)?;
+        let end = at.checked_add(8)?.checked_add(length)?;
+        if end > bytes.len() {
+            let kind = String::from_utf8_lossy(&bytes[at + 4..at + 8]).into_owned();
+            return Some(format!(
+                "GLB chunk at byte {at} (type {kind:?}) declares {length} bytes, {} beyond the \
+                 file's end: ignored",
+                end - bytes.len()
+            ));
+        }
+        at = end;
+    }
+    None
 }
 
 fn invalid(file: &Path, element: impl Into<String>, message: impl Into<String>) -> RigError {
