@@ -60,3 +60,19 @@ pub mod scenes;
 pub mod selfcontact;
 pub mod skinning;
 pub mod solve;
+
+/// Helpers shared by the unit tests.
+#[cfg(test)]
+mod test_support {
+    /// A deterministic stream of numbers in `[0, 1)` (a 64-bit linear congruential generator,
+    /// its top 53 bits) from `seed`.
+    pub fn uniform(seed: u64) -> impl FnMut() -> f64 {
+        let mut state = seed;
+        move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+}

@@ -307,13 +307,7 @@ mod tests {
     fn blocked_sums_match_eq_7() {
         // 11 samples: two full blocks of four and a padded one; scattered points, some on a
         // sample (r = r_min).
-        let mut state = 7u64;
-        let mut next = || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut next = crate::test_support::uniform(7);
         let samples: Vec<ContactSample> = (0..11)
             .map(|_| ContactSample {
                 position: Point3::new(next(), next(), next()),

@@ -999,13 +999,7 @@ mod tests {
         let unbounded = a.overlapping_pairs(&b, visit);
         assert!(!unbounded.is_empty());
         assert_eq!(a.overlapping_pairs_bounded(&b, visit).ok(), Some(unbounded));
-        let mut seed = 12345u64;
-        let mut next = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut next = crate::test_support::uniform(12345);
         let crumpled: Vec<Point3<f64>> = pa
             .iter()
             .map(|_| Point3::new(next(), next(), next()))

@@ -110,7 +110,7 @@ pub struct Intersections {
 impl Intersections {
     /// Intersections between two separate surfaces.
     pub fn between(a: &PosedMesh, b: &PosedMesh) -> Self {
-        compute(a, b, false)
+        compute(a, b)
     }
 
     /// Intersections between the two parts of one mesh (2021 Sec. 6): only pairs across the
@@ -207,24 +207,34 @@ struct PairSegment {
     hits: [EdgeHit; 2],
 }
 
-/// [`compute`] for two parts of one mesh, its candidate pairs bounded
-/// ([`crate::intersect::TriangleBvh::overlapping_pairs_bounded`]).
+/// The intersections of two parts of one mesh (face pairs sharing a vertex skipped), their
+/// candidate pairs bounded ([`crate::intersect::TriangleBvh::overlapping_pairs_bounded`]).
 fn compute_bounded(a: &PosedMesh, b: &PosedMesh) -> Result<Intersections, IntersectError> {
     let counters = Counters::default();
     let pairs = a.bvh().overlapping_pairs_bounded(b.bvh(), |fa, fb| {
         pair_segment(a, fa, b, fb, true, &counters)
     })?;
-    let degenerate = a.index().index_degenerate_faces() + b.index().index_degenerate_faces();
-    Ok(assemble(pairs, degenerate, &counters))
+    Ok(assembled(a, b, pairs, &counters))
 }
 
-fn compute(a: &PosedMesh, b: &PosedMesh, self_contact: bool) -> Intersections {
+/// The intersections of two separate surfaces.
+fn compute(a: &PosedMesh, b: &PosedMesh) -> Intersections {
     let counters = Counters::default();
     let pairs = a.bvh().overlapping_pairs(b.bvh(), |fa, fb| {
-        pair_segment(a, fa, b, fb, self_contact, &counters)
+        pair_segment(a, fa, b, fb, false, &counters)
     });
+    assembled(a, b, pairs, &counters)
+}
+
+/// [`assemble`] with both surfaces' index-degenerate faces counted.
+fn assembled(
+    a: &PosedMesh,
+    b: &PosedMesh,
+    pairs: Vec<PairSegment>,
+    counters: &Counters,
+) -> Intersections {
     let degenerate = a.index().index_degenerate_faces() + b.index().index_degenerate_faces();
-    assemble(pairs, degenerate, &counters)
+    assemble(pairs, degenerate, counters)
 }
 
 /// The exact test of a candidate pair (skipped when `self_contact` and the faces share a

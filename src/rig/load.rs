@@ -171,8 +171,7 @@ fn check_rest_pose(file: &Path, rig: &Rig) -> Result<(), RigError> {
 /// whole file's; found by fuzzing): the chunks are read as they are, with a warning (a longer
 /// declaration is a format error of the container).
 fn glb_length_warning(bytes: &[u8]) -> Option<String> {
-    let declared = bytes.get(8..12).filter(|_| bytes.starts_with(b"glTF"))?;
-    let declared = u32::from_le_bytes(declared.try_into().ok()?) as usize;
+    let declared = le_word(bytes, 8).filter(|_| bytes.starts_with(b"glTF"))?;
     (declared < bytes.len()).then(|| {
         format!(
             "GLB header declares {declared} bytes but the file holds {}: read by its chunks",
@@ -189,13 +188,9 @@ fn glb_chunk_warning(bytes: &[u8]) -> Option<String> {
     if !bytes.starts_with(b"glTF") {
         return None;
     }
-    let word = |at: usize| -> Option<usize> {
-        let b = bytes.get(at..at + 4)?;
-        Some(u32::from_le_bytes(b.try_into().ok()?) as usize)
-    };
     let mut at = 12;
     while at + 8 <= bytes.len() {
-        let length = word(at)?;
+        let length = le_word(bytes, at)?;
         let end = at.checked_add(8)?.checked_add(length)?;
         if end > bytes.len() {
             let kind = String::from_utf8_lossy(&bytes[at + 4..at + 8]).into_owned();
@@ -208,6 +203,12 @@ fn glb_chunk_warning(bytes: &[u8]) -> Option<String> {
         at = end;
     }
     None
+}
+
+/// The little-endian `u32` at byte `at` of a GLB, if the file holds it.
+fn le_word(bytes: &[u8], at: usize) -> Option<usize> {
+    let b = bytes.get(at..at.checked_add(4)?)?;
+    Some(u32::from_le_bytes(b.try_into().ok()?) as usize)
 }
 
 fn invalid(file: &Path, element: impl Into<String>, message: impl Into<String>) -> RigError {
