@@ -84,7 +84,7 @@ fn detection(c: &mut Criterion) {
         s.index_a.pose(&s.a.0).expect("pose"),
         s.index_b.pose(&s.b.0).expect("pose"),
     );
-    let ints = Intersections::between(&pa, &pb);
+    let ints = Intersections::between(&pa, &pb).expect("the scene intersects");
     println!(
         "two 10k spheres: {} hits, {} segments, {} curves, {} candidate pairs",
         ints.hits.len(),

@@ -184,6 +184,15 @@ pub enum PassError {
     Mismatch(String),
 }
 
+/// The contacts of one pass over the candidate pairs ([`ContactPass::contacts`]).
+#[derive(Default)]
+struct FoundContacts {
+    contacts: Vec<ContactSummary>,
+    /// Pairs that intersect with no direction ([`PairOutcome::NoDirection`]).
+    without_direction: usize,
+    failed: Vec<FailedContact>,
+}
+
 /// Precomputed per body.
 #[derive(Clone, Debug)]
 struct PassBody {
@@ -300,6 +309,35 @@ pub struct PassOutput {
     /// normals cancel out: two bodies crossing symmetrically) and no direction configured,
     /// left as they were ([`PairOutcome::NoDirection`]); summed over the passes.
     pub pairs_without_direction: usize,
+    /// Contacts and deformations that failed this frame (a factorization that found its
+    /// matrix not positive definite, entangled surfaces, …), each leaving what it would have
+    /// moved as it came in while the pass went on with the others: a pair whose contact
+    /// failed moves neither body for it, a body whose deformation failed keeps its input
+    /// positions (the other side of its contacts is still deformed onto the shared contact
+    /// surface). Until 2026-12-05 one such failure stopped the whole run; the input found to
+    /// make one fail is a broken rig (a body sheared a billion-fold by a fuzzed inverse bind
+    /// matrix). Each failure once per frame, however many passes met it.
+    pub failed: Vec<FailedContact>,
+}
+
+/// A contact or a deformation that failed in a frame ([`PassOutput::failed`]).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct FailedContact {
+    /// The two bodies of a contact (in increasing order), or the one body of a deformation.
+    pub bodies: Vec<usize>,
+    /// What failed.
+    pub error: String,
+}
+
+impl FailedContact {
+    fn new(bodies: &[usize], error: &PassError) -> Self {
+        let mut bodies = bodies.to_vec();
+        bodies.sort_unstable();
+        Self {
+            bodies,
+            error: error.to_string(),
+        }
+    }
 }
 
 impl PassOutput {
@@ -487,6 +525,11 @@ impl ContactPass {
             out.positions = next.positions;
             out.later_contacts += next.contacts.len();
             out.pairs_without_direction += next.pairs_without_direction;
+            for f in next.failed {
+                if !out.failed.contains(&f) {
+                    out.failed.push(f);
+                }
+            }
         }
         Ok(out)
     }
@@ -504,31 +547,35 @@ impl ContactPass {
         // Each body's normals made at its first contact (none in a frame without one).
         let normals: Vec<OnceLock<Vec<Vector3<f64>>>> =
             positions.iter().map(|_| OnceLock::new()).collect();
-        let (contacts, pairs_without_direction) =
-            self.contacts(positions, &normals, &posed, &pairs, time)?;
+        let found = self.contacts(positions, &normals, &posed, &pairs, time);
         let normals: Vec<Vec<Vector3<f64>>> = normals
             .into_iter()
             .map(|n| n.into_inner().unwrap_or_default())
             .collect();
-        for c in &contacts {
+        for c in &found.contacts {
             timings.intersection += c.contact.timings.intersection;
             timings.mapping += c.contact.timings.mapping;
             timings.zones += c.contact.timings.zones;
         }
         let results: Vec<_> = (0..self.bodies.len())
             .into_par_iter()
-            .map(|body| self.deform_body(body, positions, &normals, &contacts))
-            .collect::<Result<Vec<_>, _>>()?;
+            .map(|body| self.deform_body(body, positions, &normals, &found.contacts))
+            .collect();
         let mut out = PassOutput {
             positions: Vec::new(),
             diagnostics: Vec::new(),
-            contacts,
+            contacts: found.contacts,
             timings,
             later_contacts: 0,
-            pairs_without_direction,
+            pairs_without_direction: found.without_direction,
+            failed: found.failed,
         };
         for (body, r) in results.into_iter().enumerate() {
-            out.push_body(r, &positions[body]);
+            let deformed = r.unwrap_or_else(|e| {
+                out.failed.push(FailedContact::new(&[body], &e));
+                None
+            });
+            out.push_body(deformed, &positions[body]);
         }
         out.timings.wall = wall.elapsed().as_secs_f64();
         Ok(out)
@@ -622,8 +669,7 @@ impl ContactPass {
             .collect()
     }
 
-    /// The contacts (Sec. 4) of the candidate `pairs` of bodies, in parallel, and the number
-    /// of pairs that intersect with no direction ([`PairOutcome::NoDirection`]).
+    /// The contacts (Sec. 4) of the candidate `pairs` of bodies, in parallel.
     fn contacts(
         &self,
         positions: &[Vec<Point3<f64>>],
@@ -631,7 +677,7 @@ impl ContactPass {
         posed: &[Option<PosedMesh>],
         pairs: &[(usize, usize)],
         time: f64,
-    ) -> Result<(Vec<ContactSummary>, usize), PassError> {
+    ) -> FoundContacts {
         // Area-weighted vertex normals of body `k`, made once, when a contact first needs them.
         let normals_of = |k: usize| -> &[Vector3<f64>] {
             normals[k].get_or_init(|| {
@@ -664,21 +710,21 @@ impl ContactPass {
                     &self.pair_params(a, b, time),
                 )
                 .map(|outcome| ([a, b], outcome))
-                .map_err(|source| PassError::Contact { a, b, source })
+                .map_err(|source| FailedContact::new(&[a, b], &PassError::Contact { a, b, source }))
             })
-            .collect::<Result<Vec<_>, _>>()?;
-        let without_direction = found
-            .iter()
-            .filter(|(_, o)| matches!(o, PairOutcome::NoDirection))
-            .count();
-        let contacts = found
-            .into_iter()
-            .filter_map(|(bodies, o)| {
-                o.into_contact()
-                    .map(|contact| ContactSummary { bodies, contact })
-            })
-            .collect();
-        Ok((contacts, without_direction))
+            .collect::<Vec<_>>();
+        let mut out = FoundContacts::default();
+        for r in found {
+            match r {
+                Ok((_, PairOutcome::NoDirection)) => out.without_direction += 1,
+                Ok((bodies, o)) => out.contacts.extend(
+                    o.into_contact()
+                        .map(|contact| ContactSummary { bodies, contact }),
+                ),
+                Err(failed) => out.failed.push(failed),
+            }
+        }
+        out
     }
 
     fn deform_body(

@@ -1,6 +1,8 @@
 //! The elastic contact deformer between separate objects (2021 Sec. 4, 5, 7) on the committed
 //! scenes: capsule pair, fingertips on ball, sphere on plane (`rigs/`, resolution 8).
 
+#[path = "common/rng.rs"]
+mod rng;
 #[path = "common/scenes.rs"]
 mod scenes;
 
@@ -494,4 +496,67 @@ fn bodies_scaled_to_nothing_are_left_alone() {
     let out = pass.run(&shrunk).expect("runs");
     assert!(out.contacts.is_empty());
     assert_eq!(out.positions, shrunk);
+}
+
+/// A body whose deformation fails (here a factorization: the sphere sheared a billion-fold
+/// along `x`, as a fuzzed inverse bind matrix made it, leaves its heat matrix not positive
+/// definite in round-off) is left as it came in and reported once per frame, while the other
+/// body of the contact is still deformed; until 2026-12-05 the failure stopped the run.
+#[test]
+fn a_failing_deformation_leaves_its_body_as_it_came_and_the_other_resolves() {
+    let l = load("sphere_plane", 5);
+    let pass = l.pass(object_params(2, &[stiffness_for(0.3), 1.0], 0.6), vec![]);
+    let mut input = l.frame(2);
+    for p in &mut input[1] {
+        p.x += 1e9 * p.z;
+    }
+    let out = pass.run(&input).expect("the frame runs");
+    assert_eq!(
+        out.contacts.len(),
+        1,
+        "the sheared sphere still meets the plane"
+    );
+    assert_eq!(out.failed.len(), 1, "reported once: {:?}", out.failed);
+    assert_eq!(out.failed[0].bodies, [1]);
+    assert!(
+        out.failed[0].error.contains("factorization"),
+        "{:?}",
+        out.failed
+    );
+    assert_eq!(out.positions[1], input[1], "the failed body as it came in");
+    assert_ne!(out.positions[0], input[0], "the plane deformed");
+    let finite = out
+        .positions
+        .iter()
+        .flatten()
+        .all(|q| q.iter().all(|c| c.is_finite()));
+    assert!(finite);
+}
+
+/// Two bodies entangled rather than in contact (each capsule's vertices shuffled, as a broken
+/// rig's permuted joints or misread positions make them: every face a sliver across the body)
+/// fail their contact at the candidate-pair budget and are left as they came in (measured:
+/// 11.6 s per frame before the budget, 4.9 ms with it).
+#[test]
+fn entangled_bodies_fail_their_contact_and_are_left_as_they_came() {
+    let l = load("capsule_pair", 5);
+    let pass = l.pass(object_params(2, &[stiffness_for(0.3), 1.0], 0.6), vec![]);
+    let mut input = l.frame(2);
+    let mut rng = rng::Rng(7);
+    for body in &mut input {
+        let orig = body.clone();
+        for p in body.iter_mut() {
+            *p = orig[(rng.next_u64() % orig.len() as u64) as usize];
+        }
+    }
+    let out = pass.run(&input).expect("the frame runs");
+    assert!(out.contacts.is_empty());
+    assert_eq!(out.failed.len(), 1, "{:?}", out.failed);
+    assert_eq!(out.failed[0].bodies, [0, 1]);
+    assert!(
+        out.failed[0].error.contains("entangled"),
+        "{:?}",
+        out.failed
+    );
+    assert_eq!(out.positions, input);
 }

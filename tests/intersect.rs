@@ -427,7 +427,7 @@ fn region_of_a_plane_cutting_a_sphere() {
         ia.pose(&sphere.0).expect("a"),
         ib.pose(&plane.0).expect("b"),
     );
-    let ints = Intersections::between(&a, &b);
+    let ints = Intersections::between(&a, &b).expect("in contact");
     check_all_hits(&ints, &sphere, &plane, 1e-12);
     assert_eq!(ints.curves.len(), 1);
     assert!(ints.curves[0].closed);
@@ -539,7 +539,7 @@ fn region_vertex_labels_follow_the_crossing_signs() {
     let ia = MeshIndex::new(&a.0, &a.1).expect("a");
     let ib = MeshIndex::new(&b.0, &b.1).expect("b");
     let (pa, pb) = (ia.pose(&a.0).expect("a"), ib.pose(&b.0).expect("b"));
-    let ints = Intersections::between(&pa, &pb);
+    let ints = Intersections::between(&pa, &pb).expect("in contact");
     for (side, mesh, other_c, other_r, posed) in [
         (Side::A, &a, Point3::new(0.2, 0.1, 0.9), 0.6, &pa),
         (Side::B, &b, Point3::origin(), 1.0, &pb),
@@ -1255,7 +1255,7 @@ fn plane_through_a_ring_of_vertices() {
         ia.pose(&sphere.0).expect("a"),
         ib.pose(&plane.0).expect("b"),
     );
-    let ints = Intersections::between(&a, &b);
+    let ints = Intersections::between(&a, &b).expect("in contact");
     assert!(ints.stats.symbolic_ties > 0);
     assert_finite(&ints);
     check_closed_curves(&ints);
@@ -1329,7 +1329,7 @@ fn everything(a: &Mesh, b: &Mesh, rays: &[Ray], rebuild: bool) -> Everything {
     let ia = MeshIndex::new(&a.0, &a.1).expect("a");
     let ib = MeshIndex::new(&b.0, &b.1).expect("b");
     let (pa, pb) = (posed(&ia, a, rebuild), posed(&ib, b, rebuild));
-    let ints = Intersections::between(&pa, &pb);
+    let ints = Intersections::between(&pa, &pb).expect("in contact");
     let ra = IntersectionRegion::inside(&ints, Side::A, &pa).expect("region");
     let rb = IntersectionRegion::inside(&ints, Side::B, &pb).expect("region");
     let hits = farthest_hits(&pb, rays);
@@ -1380,7 +1380,7 @@ fn results_are_identical_across_runs_and_thread_counts() {
                 } else {
                     (ia.pose(&frame.0).expect("a"), ib.pose(&b.0).expect("b"))
                 };
-                let ints = Intersections::between(&pa, &pb);
+                let ints = Intersections::between(&pa, &pb).expect("in contact");
                 let ra = IntersectionRegion::inside(&ints, Side::A, &pa).expect("region");
                 (
                     ints,
@@ -1418,7 +1418,7 @@ fn tetrahedron_through_a_square() {
     let ia = MeshIndex::new(&square.0, &square.1).expect("square");
     let ib = MeshIndex::new(&tet.0, &tet.1).expect("tet");
     let (a, b) = (ia.pose(&square.0).expect("a"), ib.pose(&tet.0).expect("b"));
-    let ints = Intersections::between(&a, &b);
+    let ints = Intersections::between(&a, &b).expect("in contact");
     check_all_hits(&ints, &square, &tet, 1e-14);
     check_closed_curves(&ints);
     assert!(
@@ -1486,7 +1486,7 @@ fn hole_in_a_face_from_a_dent() {
         ia.pose(&square.0).expect("a"),
         ib.pose(&dented.0).expect("b"),
     );
-    let ints = Intersections::between(&a, &b);
+    let ints = Intersections::between(&a, &b).expect("in contact");
     check_closed_curves(&ints);
     assert!(ints.hits.iter().all(|h| h.side == Side::B));
     let region = IntersectionRegion::inside(&ints, Side::A, &a).expect("region");

@@ -493,6 +493,8 @@ fn an_earlier_runs_frames_are_reported_not_removed() {
 // ---------------------------------------------------------------------------------------------
 // The contact pass (on by default)
 
+#[path = "common/glb.rs"]
+mod glb;
 #[path = "common/scenes.rs"]
 mod scenes;
 
@@ -1426,4 +1428,49 @@ fn an_interrupted_run_removes_its_temporaries() {
     assert_eq!(done.status.code(), Some(130), "{err}");
     assert_eq!(hidden(), 0, "temporaries left: {err}");
     let _ = std::fs::remove_dir_all(&out);
+}
+
+/// A contact whose deformation fails on a broken rig (`sphere_plane` with the sphere's inverse
+/// bind matrix given a shear of 1e9, as fuzzing found it: its heat matrix is not positive
+/// definite in round-off) leaves the sphere as skinned: every frame is written, the JSON counts
+/// the failures and names the first, and a warning says so (the run stopped with "nothing
+/// written" until 2026-12-05).
+#[test]
+fn a_failing_contact_is_reported_and_the_run_goes_on() {
+    let dir = tmp("failing-contact");
+    std::fs::create_dir_all(&dir).expect("tmp folder");
+    let rig_path = dir.join("sheared.glb");
+    let glb = std::fs::read(committed("sphere_plane")).expect("committed rig");
+    std::fs::write(&rig_path, with_inverse_bind_entry(&glb, 1, 8, 1e9)).expect("writes");
+    let out = dir.join("out");
+    let run = pose_frames(&rig_path, &out, "5", &["--json"]);
+    let summary: Value = serde_json::from_slice(&run.stdout).expect("JSON summary");
+    assert!(
+        summary["contacts_failed"].as_u64().is_some_and(|n| n >= 1),
+        "{summary}"
+    );
+    let first = summary["first_contact_failure"].as_str().expect("named");
+    assert!(first.contains("deformation of body 1"), "{first}");
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(stderr.contains("left as skinned"), "{stderr}");
+    for i in 0..5 {
+        let frame = out.join(format!("frame_{i:04}.obj"));
+        let text = std::fs::read_to_string(&frame).expect("every frame written");
+        let finite = obj_vertices(&text).iter().flatten().all(|c| c.is_finite());
+        assert!(finite, "{}", frame.display());
+    }
+}
+
+/// `glb` with entry `entry` (column-major) of skin `skin`'s first inverse bind matrix set to
+/// `value` in its BIN chunk.
+fn with_inverse_bind_entry(glb: &[u8], skin: usize, entry: usize, value: f32) -> Vec<u8> {
+    let json = glb::json(glb);
+    let index = |v: &Value| v.as_u64().expect("an index") as usize;
+    let accessor = &json["accessors"][index(&json["skins"][skin]["inverseBindMatrices"])];
+    let view = &json["bufferViews"][index(&accessor["bufferView"])];
+    let offset = |v: &Value| v["byteOffset"].as_u64().unwrap_or(0) as usize;
+    let at = glb::bin_start(glb) + offset(view) + offset(accessor) + 4 * entry;
+    let mut out = glb.to_vec();
+    out[at..at + 4].copy_from_slice(&value.to_le_bytes());
+    out
 }

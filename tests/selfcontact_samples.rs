@@ -1,6 +1,8 @@
 //! Self-contact on the real characters of `../shared/gltf-samples/` (read from there, never
 //! copied): which animations fold a joint into contact, and what the pass does to them.
 
+#[path = "common/glb.rs"]
+mod glb;
 #[path = "common/rng.rs"]
 mod rng;
 #[path = "common/scenes.rs"]
@@ -623,21 +625,9 @@ fn a_failing_fold_is_left_as_skinned_and_the_others_resolve() {
 
 /// A GLB with its first mesh's first primitive given `mode` (its JSON chunk rewritten).
 fn with_first_primitive_mode(glb: &[u8], mode: u32) -> Vec<u8> {
-    let word = |at: usize| u32::from_le_bytes(glb[at..at + 4].try_into().expect("4 bytes"));
-    let json_end = 20 + word(12) as usize;
-    let mut json: serde_json::Value = serde_json::from_slice(&glb[20..json_end]).expect("json");
-    json["meshes"][0]["primitives"][0]["mode"] = mode.into();
-    let mut text = serde_json::to_vec(&json).expect("json");
-    text.resize(text.len().next_multiple_of(4), b' ');
-    let rest = &glb[json_end..];
-    let mut out = Vec::with_capacity(20 + text.len() + rest.len());
-    out.extend_from_slice(&glb[..8]);
-    out.extend_from_slice(&((20 + text.len() + rest.len()) as u32).to_le_bytes());
-    out.extend_from_slice(&(text.len() as u32).to_le_bytes());
-    out.extend_from_slice(b"JSON");
-    out.extend_from_slice(&text);
-    out.extend_from_slice(rest);
-    out
+    glb::with_json(glb, |json| {
+        json["meshes"][0]["primitives"][0]["mode"] = mode.into()
+    })
 }
 
 /// The separated regions of the skeleton (sibling subtrees, each joint against its

@@ -243,6 +243,9 @@ pub struct FrameDiagnostics {
     /// Pairs of bodies intersecting with no direction (Eq. 2's normals cancel out), left as
     /// they were ([`contact_skin::pass::PassOutput::pairs_without_direction`]).
     pub contacts_without_direction: usize,
+    /// Contacts and deformations that failed and were left as they came in, with what failed
+    /// ([`contact_skin::pass::PassOutput::failed`]).
+    pub contacts_failed: Vec<contact_skin::pass::FailedContact>,
     /// Stage timings in seconds.
     pub timings_s: StageTimings,
     /// Folds resolved by the self-contact pass, in the order they ran (empty when it is off).
@@ -434,6 +437,7 @@ pub fn diagnostics(rig: &Rig, pre: &Precomputed, c: &ContactFrame) -> FrameDiagn
         contacts,
         later_contacts: c.output.later_contacts,
         contacts_without_direction: c.output.pairs_without_direction,
+        contacts_failed: c.output.failed.clone(),
         timings_s: c.output.timings,
         folds,
         folds_without_direction: c.self_output.as_ref().map_or(0, |s| s.no_direction),

@@ -8,7 +8,7 @@ use super::measure::{self, Measured, RunMetrics};
 use super::CliResult;
 use contact_skin::frames::{self, Frame, Precomputed};
 use contact_skin::output::{self, glb, obj, Staged};
-use contact_skin::pass::StageTimings;
+use contact_skin::pass::{FailedContact, StageTimings};
 use contact_skin::rig::{self, Rig};
 use contact_skin::selfcontact::fold::FoldTimings;
 use contact_skin::selfcontact::pass::FailedFold;
@@ -131,6 +131,12 @@ struct Summary {
     /// normals cancel out: a symmetric crossing; a `[[pair]] direction` resolves them), left
     /// as they were, summed over the frames (a warning).
     contacts_without_direction: usize,
+    /// Contacts between bodies and deformations of bodies that failed (a factorization,
+    /// entangled surfaces, …), each leaving what it would have moved as it came in while the
+    /// pass went on, summed over the frames (a warning naming the first).
+    contacts_failed: usize,
+    /// The first of them: `frame N: error`.
+    first_contact_failure: Option<String>,
     vertices: usize,
     files: Vec<String>,
     /// Number of `frame_NNNN.diag.json` written.
@@ -254,6 +260,7 @@ struct FrameStats {
     ms: f64,
     contacts: usize,
     contacts_without_direction: usize,
+    contacts_failed: Vec<FailedContact>,
     timings: Option<StageTimings>,
     diagnostics: bool,
     /// Names of the folds resolved.
@@ -432,6 +439,11 @@ fn summarize(
         frames: times.len(),
         contact_frames: stats.iter().filter(|s| s.contacts > 0).count(),
         contacts_without_direction: stats.iter().map(|s| s.contacts_without_direction).sum(),
+        contacts_failed: stats.iter().map(|s| s.contacts_failed.len()).sum(),
+        first_contact_failure: stats.iter().enumerate().find_map(|(i, s)| {
+            let f = s.contacts_failed.first()?;
+            Some(format!("frame {i}: {}", f.error))
+        }),
         vertices: rig.vertex_count(),
         files: files.iter().map(|p| p.display().to_string()).collect(),
         diagnostics: stats.iter().filter(|s| s.diagnostics).count(),
@@ -476,6 +488,13 @@ fn print_summary(s: &Summary, a: &Args) -> CliResult {
             "warning: {} self-contact fold(s) failed and were left as skinned, the others \
              resolved (first: {first})",
             s.folds_failed
+        );
+    }
+    if let Some(first) = &s.first_contact_failure {
+        eprintln!(
+            "warning: {} contact(s) between bodies failed and were left as skinned, the others \
+             resolved (first: {first})",
+            s.contacts_failed
         );
     }
     if s.contacts_without_direction > 0 {
@@ -774,6 +793,7 @@ fn compute_unchecked(
             ms,
             contacts: 0,
             contacts_without_direction: 0,
+            contacts_failed: Vec::new(),
             timings: None,
             diagnostics: false,
             folds: Vec::new(),
@@ -801,6 +821,7 @@ fn compute_unchecked(
         ms,
         contacts: cf.output.contacts.len(),
         contacts_without_direction: cf.output.pairs_without_direction,
+        contacts_failed: cf.output.failed.clone(),
         timings: Some(cf.output.timings),
         diagnostics: job.args.diagnostics,
         folds: so.map_or(Vec::new(), |s| {

@@ -249,7 +249,7 @@ fn contact_curves(
 ) -> Result<Option<Intersections>, ContactError> {
     let ints = match surfaces {
         Surfaces::PartsOfOneMesh(_) => Intersections::self_contact(meshes[0], meshes[1])?,
-        Surfaces::Separate => Intersections::between(meshes[0], meshes[1]),
+        Surfaces::Separate => Intersections::between(meshes[0], meshes[1])?,
     };
     let touch = TOUCH_TOLERANCE * reach_of(meshes[0], meshes[1]);
     let contact = !(ints.is_empty() || curve_length(&ints) <= touch);

@@ -31,7 +31,7 @@
 //! let (ia, ib) = (MeshIndex::new(&pa, &ta)?, MeshIndex::new(&pb, &tb)?);
 //! // Per frame (here the same positions): refit, intersect, regions.
 //! let (a, b) = (ia.pose(&pa)?, ib.pose(&pb)?);
-//! let ints = Intersections::between(&a, &b);
+//! let ints = Intersections::between(&a, &b)?;
 //! assert_eq!(ints.curves.len(), 1);
 //! assert!(ints.curves[0].closed);
 //! // The part of the square inside the tetrahedron: its cross-section triangle.
