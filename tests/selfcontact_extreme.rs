@@ -3,16 +3,20 @@
 //! past its own palm (its last phalanx pressed into its metacarpal, which no parent/child pair
 //! holds). Deep contacts must come out finite, with the volume kept; with LBS input resolved.
 
+#[path = "common/glb.rs"]
+mod glb;
 #[path = "common/rng.rs"]
 mod rng;
 #[path = "common/scenes.rs"]
 mod scenes;
 
+use contact_skin::config::ContactConfig;
+use contact_skin::pass::{rest_bodies, ContactPass};
 use contact_skin::rig::{LocalTransform, Rig};
 use contact_skin::selfcontact::pass::SelfContactPass;
 use contact_skin::selfcontact::{separated_from_skeleton, RegionOptions};
 use contact_skin::skinning::Method;
-use nalgebra::{Unit, UnitQuaternion, Vector3};
+use nalgebra::{Point3, Unit, UnitQuaternion, Vector3};
 use scenes::{load_with, self_pass_separated, Loaded, Posed};
 
 /// The pass of `l`: its parent/child pairs, and with `skeleton` the separated regions of its
@@ -170,4 +174,80 @@ fn a_finger_curled_past_its_palm() {
     assert_eq!(skeleton.non_finite, 0);
     assert!(skeleton.volume < 1e-9);
     assert!(skeleton.turned <= derived.turned);
+}
+
+/// A rig in other units (its scene put under a node scaled by 2⁻⁶⁴ or 2⁶⁴, which scales every
+/// coordinate without rounding) comes out of the contact pass between bodies and the
+/// self-contact pass scaled by the same power of two, to the bit: no tolerance of the pipeline
+/// is absolute. Until 2026-12-05 a floor of 1e-9 on the scene's size made every contact of a
+/// rig scaled below 1e-18 a touch (left as skinned, without a word), and parry's absolute
+/// tolerances changed the bulge guard's face pairs at 2⁻⁶⁴ (the capsule's last frame came out
+/// 3.7e-4 of its size apart).
+#[test]
+fn a_rig_in_other_units_gives_the_same_result_scaled() {
+    for name in ["bending_capsule", "sphere_plane"] {
+        let bytes = scenes::committed_bytes(name);
+        let plain = scenes::load_bytes(name, &bytes, 31);
+        for scale in [2f64.powi(-64), 2f64.powi(64)] {
+            let scaled = scenes::load_bytes(name, &under_scaled_root(&bytes, scale), 31);
+            let passes = [&plain, &scaled].map(|l| (contact_pass(l), pass(l, false)));
+            for k in [10, 20, 30] {
+                let (a, resolved) = both_passes(&plain, &passes[0], k);
+                let (b, resolved_scaled) = both_passes(&scaled, &passes[1], k);
+                assert!(
+                    resolved > 0 || k == 10,
+                    "{name} frame {k}: a contact to compare"
+                );
+                assert_eq!(resolved, resolved_scaled, "{name} × {scale:e} frame {k}");
+                let expected: Vec<Vec<Point3<f64>>> = a
+                    .iter()
+                    .map(|body| body.iter().map(|p| p * scale).collect())
+                    .collect();
+                assert!(
+                    b == expected,
+                    "{name} × {scale:e} frame {k}: not the same scaled"
+                );
+            }
+        }
+    }
+}
+
+/// The contact pass between bodies with the defaults `pose` uses.
+fn contact_pass(l: &Loaded) -> ContactPass {
+    let (params, overrides, _) = ContactConfig::default()
+        .resolve(&l.rig, &l.pre.welded)
+        .expect("defaults resolve");
+    let rest = scenes::welded_positions(&l.rig, &l.pre, 0.0, None);
+    ContactPass::new(&rest_bodies(&rest, &l.pre.welded), params, overrides).expect("pass")
+}
+
+/// Frame `k` of `l` through the pass between bodies, then the self-contact pass, as `pose`
+/// runs them; with the number of contacts and folds resolved.
+fn both_passes(
+    l: &Loaded,
+    (between, own): &(ContactPass, SelfContactPass),
+    k: usize,
+) -> (Vec<Vec<Point3<f64>>>, usize) {
+    let t = l.times[k];
+    let frame = contact_skin::frames::evaluate(&l.rig, &l.pre, Some(0), k, t);
+    let input = frame.welded(&l.pre);
+    let normals = frame.welded_normals(&l.pre);
+    let objects = between.run_at(&input, t).expect("contact pass runs");
+    let mut out = objects.positions;
+    let pose = l.rig.pose_at(Some(0), t);
+    let folds = own
+        .run_with_normals(&l.rig, &pose, &mut out, &normals)
+        .expect("self-contact runs");
+    (out, objects.contacts.len() + folds.folds.len())
+}
+
+/// `glb` with its scene put under a new root node scaled by `scale`.
+fn under_scaled_root(glb: &[u8], scale: f64) -> Vec<u8> {
+    glb::with_json(glb, |json| {
+        let scene = json["scene"].as_u64().unwrap_or(0) as usize;
+        let roots = json["scenes"][scene]["nodes"].take();
+        let nodes = json["nodes"].as_array_mut().expect("nodes");
+        nodes.push(serde_json::json!({"scale": [scale, scale, scale], "children": roots}));
+        json["scenes"][scene]["nodes"] = serde_json::json!([nodes.len() - 1]);
+    })
 }

@@ -718,13 +718,14 @@ fn curve_length(ints: &Intersections) -> f64 {
         .sum()
 }
 
-/// The diagonal of the box around both surfaces.
+/// The diagonal of the box around both surfaces (at least the smallest positive number: a
+/// floor of 1e-9, until 2026-12-05, made every contact of a rig scaled below 1e-18 a touch).
 fn reach_of(a: &PosedMesh, b: &PosedMesh) -> f64 {
     let boxes = [a.bvh().root_box(), b.bvh().root_box()];
     let mut it = boxes.iter().flatten();
     let Some(first) = it.next() else { return 1.0 };
     let all = it.fold(*first, |acc, x| acc.union(x));
-    (all.max - all.min).norm().max(1e-9)
+    (all.max - all.min).norm().max(f64::MIN_POSITIVE)
 }
 
 #[cfg(test)]

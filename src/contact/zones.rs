@@ -506,7 +506,7 @@ fn project(
     let lerp_target = si.mapping.target + (sj.mapping.target - si.mapping.target) * lambda;
     let edge_len = (pj - pi).norm();
     let cast = map_point(input.other, &point, &input.frame.cast, input.reach)
-        .filter(|m| (m.target - lerp_target).norm() <= edge_len.max(1e-12));
+        .filter(|m| (m.target - lerp_target).norm() <= edge_len);
     let mapping = if lambda >= 1.0 {
         sj.mapping
     } else {

@@ -105,20 +105,33 @@ pub fn bulge_scales(
 }
 
 /// The distance between the faces `tri` without their bulge (0 where they touch or cross,
-/// and for faces sharing a corner).
+/// and for faces sharing a corner). Measured in units of the power of two nearest the fold's
+/// edge length ([`unit_of`]): parry's distance stops at absolute tolerances, and a rig in
+/// other units (scaled by 2⁻⁶⁴) guarded other faces until 2026-12-05.
 fn separation(bulge: &BulgeStep, tri: &[[u32; 3]; 2]) -> f64 {
     use parry3d_f64::math::{Pose, Vector};
     use parry3d_f64::shape::Triangle;
+    let unit = unit_of(bulge.tolerance / TOLERANCE);
     let shape = |f: &[u32; 3]| {
         let p = f.map(|v| {
-            let x = bulge.base[v as usize];
+            let x = bulge.base[v as usize] / unit;
             Vector::new(x.x, x.y, x.z)
         });
         Triangle::new(p[0], p[1], p[2])
     };
     let (a, b) = (shape(&tri[0]), shape(&tri[1]));
     parry3d_f64::query::distance(&Pose::IDENTITY, &a, &Pose::IDENTITY, &b)
-        .map_or(0.0, |d| d.distance)
+        .map_or(0.0, |d| d.distance * unit)
+}
+
+/// The power of two nearest `length` (1 for a length that is not positive and finite): a
+/// unit to divide by without rounding.
+fn unit_of(length: f64) -> f64 {
+    if length > 0.0 && length.is_finite() {
+        length.log2().round().exp2()
+    } else {
+        1.0
+    }
 }
 
 /// The longest bulge step of the faces `tri`'s corners.

@@ -38,8 +38,21 @@ pub fn load_with(name: &str, frames: usize, method: Method) -> Loaded {
 pub fn load_generated(name: &str, resolution: u32, frames: usize) -> Loaded {
     let scene = contact_skin::scenes::Scene::from_name(name).expect("known scene");
     let bytes = contact_skin::scenes::build_glb(scene, resolution).expect("scene builds");
-    let rig = rig::load_from_bytes(Path::new(name), &bytes).expect("generated rig loads");
+    load_bytes(name, &bytes, frames)
+}
+
+/// A GLB held in memory (LBS).
+pub fn load_bytes(name: &str, bytes: &[u8], frames: usize) -> Loaded {
+    let rig = rig::load_from_bytes(Path::new(name), bytes).expect("rig loads");
     prepare(rig, frames, Method::Lbs)
+}
+
+/// The committed rig `name`'s GLB bytes.
+pub fn committed_bytes(name: &str) -> Vec<u8> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("rigs")
+        .join(format!("{name}.glb"));
+    std::fs::read(path).expect("committed rig reads")
 }
 
 fn prepare(rig: Rig, frames: usize, method: Method) -> Loaded {
