@@ -212,26 +212,50 @@ fn rest_pose_reproduces_bind_positions() {
     assert!(nerr < 1e-13, "rest pose changed normals by {nerr}");
 }
 
+/// A common rigid motion is that motion; so is a common similarity (joints that also scale:
+/// an armature node scaled from centimetres to metres, or 100× the other way), and a bend under
+/// a scaled root is the bend scaled. Until 2026-12-05 the offset from a vertex to its center
+/// kept its bind size, and the blended vertices of the tube scaled by 0.01 lay up to 0.99 of
+/// that offset away.
 #[test]
-fn common_rigid_motion_is_that_motion() {
-    let (_, body) = standard_tube(true);
+fn common_similarity_is_that_similarity() {
+    let (tube, body) = standard_tube(true);
     let centers = CorCenters::precompute(&body);
-    let g = Translation3::new(0.3, -2.0, 5.0).to_homogeneous()
-        * rotation_about(
-            Point3::new(1.0, 2.0, 3.0),
-            Vector3::new(1.0, 2.0, -0.5),
-            2.2,
-        );
-    let out = cor::skin(&body, &centers, &[g, g]);
-    let expected: Vec<Point3<f64>> = body
+    let rest_size = body
         .positions
         .iter()
-        .map(|p| g.transform_point(p))
-        .collect();
-    let err = max_distance(&out.positions, &expected);
-    assert!(err < 1e-12, "rigid motion error {err}");
-    for (n, n0) in out.normals.iter().zip(&body.normals) {
-        assert!((n - g.transform_vector(n0)).norm() < 1e-12);
+        .map(|p| p.coords.norm())
+        .fold(0.0, f64::max);
+    for scale in [1.0, 0.01, 100.0] {
+        let root = Matrix4::new_scaling(scale);
+        let g = Translation3::new(0.3, -2.0, 5.0).to_homogeneous()
+            * root
+            * rotation_about(
+                Point3::new(1.0, 2.0, 3.0),
+                Vector3::new(1.0, 2.0, -0.5),
+                2.2,
+            );
+        let out = cor::skin(&body, &centers, &[g, g]);
+        let expected: Vec<Point3<f64>> = body
+            .positions
+            .iter()
+            .map(|p| g.transform_point(p))
+            .collect();
+        let err = max_distance(&out.positions, &expected) / (scale * rest_size);
+        assert!(err < 1e-12, "× {scale}: motion error {err:e} of the size");
+        for (n, n0) in out.normals.iter().zip(&body.normals) {
+            assert!((n - g.transform_vector(n0).normalize()).norm() < 1e-12);
+        }
+        let bent = bend(tube.len, 1.2);
+        let plain = cor::skin(&body, &centers, &bent);
+        let scaled = cor::skin(
+            &body,
+            &centers,
+            &bent.iter().map(|m| root * m).collect::<Vec<_>>(),
+        );
+        let expected: Vec<Point3<f64>> = plain.positions.iter().map(|p| p * scale).collect();
+        let err = max_distance(&scaled.positions, &expected) / (scale * rest_size);
+        assert!(err < 1e-12, "× {scale}: bend error {err:e} of the size");
     }
 }
 

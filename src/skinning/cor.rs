@@ -20,7 +20,13 @@
 //! ```
 //!
 //! with `R_i` the rotation of the normalized quaternion blend `Σ_s w_is q_s` (signs aligned to
-//! the heaviest influence), `q_s` the rotation of the polar decomposition of `M_s`.
+//! the heaviest influence), `q_s` the rotation of the polar decomposition `A_s = R_s S_s` of
+//! `M_s`. The paper's joints are rigid; a joint that scales (an armature node scaled from
+//! centimetres to metres) also gets its stretch, blended as dual quaternion skinning blends
+//! it (`S̄_i = Σ_s w_is S_s`): `p'_i = Σ_s w_is M_s p*_i + R_i S̄_i (p_i - p*_i)`,
+//! `n'_i = R_i cof(S̄_i) n_i`, which a single joint reproduces exactly (`M_s p_i`); until
+//! 2026-12-05 the offset `p_i - p*_i` kept its bind size, and a rig under a root scaled by
+//! 2⁻⁶⁴ had its blended vertices one bind size away from the rest.
 //!
 //! # Precomputation in O(Σ_pairs V_jk · T_jk) instead of O(V · T)
 //!
@@ -39,8 +45,8 @@
 //! precomputation evaluates the kernel ~1.4·10⁸ times and takes ~0.25 s on 2 cores, where the
 //! naive double sum would take ~30k × 88k subtriangles × pairs evaluations.
 
-use super::dqs::polar;
-use super::{lbs, unit_or_zero, Skinned};
+use super::dqs::{joint_dqs, JointDq};
+use super::{cofactor, lbs, unit_or_zero, Skinned};
 use crate::rig::{Body, SkinWeights};
 use nalgebra::{Matrix3, Matrix4, Point3, Quaternion, UnitQuaternion, Vector3};
 use rayon::prelude::*;
@@ -615,41 +621,41 @@ fn exp2_neg(u: f64) -> f64 {
     f64::from_bits((p * scale).to_bits() & keep)
 }
 
-/// A joint's rotation for the quaternion blend.
-fn joint_rotations(mats: &[Matrix4<f64>]) -> Vec<Quaternion<f64>> {
-    mats.iter()
-        .map(|m| {
-            let a: Matrix3<f64> = m.fixed_view::<3, 3>(0, 0).into_owned();
-            polar(&a).0.into_inner()
-        })
-        .collect()
-}
-
 /// The normalized, sign-aligned quaternion blend `Σ_s w_s q_s` of one vertex (signs aligned to
 /// the heaviest influence), as a rotation; identity when the blend vanishes.
-fn blended_rotation(
-    joints: &[u16],
-    weights: &[f64],
-    rots: &[Quaternion<f64>],
-) -> UnitQuaternion<f64> {
+fn blended_rotation(joints: &[u16], weights: &[f64], split: &[JointDq]) -> UnitQuaternion<f64> {
     let pivot = joints
         .iter()
         .zip(weights)
         .max_by(|a, b| a.1.total_cmp(b.1))
-        .and_then(|(&j, _)| rots.get(j as usize));
-    let Some(&q0) = pivot else {
+        .and_then(|(&j, _)| split.get(j as usize));
+    let Some(q0) = pivot.map(|d| d.real) else {
         return UnitQuaternion::identity();
     };
     let mut q = Quaternion::new(0.0, 0.0, 0.0, 0.0);
     for (&j, &w) in joints.iter().zip(weights) {
-        if let Some(r) = rots.get(j as usize) {
+        if let Some(r) = split.get(j as usize).map(|d| d.real) {
             q += r * if r.dot(&q0) < 0.0 { -w } else { w };
         }
     }
     UnitQuaternion::try_new(q, 1e-12).unwrap_or_else(UnitQuaternion::identity)
 }
 
-/// Skins one vertex with its center: `p' = (Σ w_s M_s) p* + R (p - p*)`, `n' = R n`.
+/// The blended stretch `S̄ = Σ_s w_s S_s` of one vertex, `None` when every joint is rigid.
+fn blended_stretch(joints: &[u16], weights: &[f64], split: &[JointDq]) -> Option<Matrix3<f64>> {
+    let mut stretch = Matrix3::zeros();
+    let mut stretched = false;
+    for (&j, &w) in joints.iter().zip(weights) {
+        if let Some(d) = split.get(j as usize) {
+            stretch += d.stretch * w;
+            stretched |= d.stretched;
+        }
+    }
+    stretched.then_some(stretch)
+}
+
+/// Skins one vertex with its center: `p' = (Σ w_s M_s) p* + R S̄ (p - p*)`, `n' = R cof(S̄) n` (`S̄`
+/// the identity for rigid joints).
 fn skin_vertex_cor(
     joints: &[u16],
     weights: &[f64],
@@ -657,7 +663,7 @@ fn skin_vertex_cor(
     n: &Vector3<f64>,
     center: &Point3<f64>,
     mats: &[Matrix4<f64>],
-    rots: &[Quaternion<f64>],
+    split: &[JointDq],
 ) -> (Point3<f64>, Vector3<f64>) {
     let mut m = Matrix4::zeros();
     for (&j, &w) in joints.iter().zip(weights) {
@@ -665,16 +671,20 @@ fn skin_vertex_cor(
             m += mj * w;
         }
     }
-    let r = blended_rotation(joints, weights, rots);
-    let p2 = m.transform_point(center) + r * (p - center);
-    (p2, unit_or_zero(r * n))
+    let r = blended_rotation(joints, weights, split);
+    let (offset, normal) = match blended_stretch(joints, weights, split) {
+        Some(s) => (s * (p - center), cofactor(&s) * n),
+        None => (p - center, *n),
+    };
+    let p2 = m.transform_point(center) + r * offset;
+    (p2, unit_or_zero(r * normal))
 }
 
 /// Center-of-rotation skinning of a whole body (Le & Hodgins 2016): vertices with a center use
 /// `p' = Σ_s w_s M_s p* + R (p - p*)`, the others plain LBS. A missing center (e.g. `centers`
 /// computed for another body) also falls back to LBS.
 pub fn skin(body: &Body, centers: &CorCenters, mats: &[Matrix4<f64>]) -> Skinned {
-    let rots = joint_rotations(mats);
+    let split = joint_dqs(mats);
     let (positions, normals) = (0..body.vertex_count())
         .into_par_iter()
         .with_min_len(1024)
@@ -684,7 +694,7 @@ pub fn skin(body: &Body, centers: &CorCenters, mats: &[Matrix4<f64>]) -> Skinned
             match centers.centers.get(v).copied().flatten() {
                 Some(c) if v < body.weights.len() => {
                     let (joints, weights) = body.weights.row_slices(v);
-                    skin_vertex_cor(joints, weights, p, &n, &c, mats, &rots)
+                    skin_vertex_cor(joints, weights, p, &n, &c, mats, &split)
                 }
                 _ if v < body.weights.len() => lbs::skin_vertex(&body.weights, v, p, &n, mats),
                 _ => (*p, unit_or_zero(n)),
