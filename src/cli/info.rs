@@ -433,7 +433,7 @@ fn print_self_contact(s: &SelfContactInfo) {
         s.safeguard_angle,
         match s.joint_extent {
             Some(k) => format!("{k} x joint size"),
-            None => format!("{:.6}", s.extent),
+            None => length(s.extent),
         },
         s.gamma,
         s.omega,
@@ -486,7 +486,7 @@ fn print_self_contact(s: &SelfContactInfo) {
             own
         };
         println!(
-            "    pair '{}' (body {} '{}', joints '{}' {} '{}'): shared region {} vertices, joint size {:.6}, extent {:.6}, {direction}{own}",
+            "    pair '{}' (body {} '{}', joints '{}' {} '{}'): shared region {} vertices, joint size {}, extent {}, {direction}{own}",
             p.name,
             p.body,
             p.body_name,
@@ -494,8 +494,8 @@ fn print_self_contact(s: &SelfContactInfo) {
             if p.separated { "vs" } else { "->" },
             p.child,
             p.shared,
-            p.joint_size,
-            p.extent
+            length(p.joint_size),
+            length(p.extent)
         );
         println!("      {}", p.reason);
     }
@@ -582,12 +582,12 @@ fn print_contact(c: &ContactInfo) {
             _ => String::new(),
         };
         println!(
-            "    object {} '{}'{}: stiffness {k}, tau {}, extent {:.6}, gamma {}, omega {}{map}",
+            "    object {} '{}'{}: stiffness {k}, tau {}, extent {}, gamma {}, omega {}{map}",
             o.body,
             o.name,
             if o.configured { "" } else { " (defaults)" },
             o.tau,
-            o.extent,
+            length(o.extent),
             o.gamma,
             o.omega
         );
@@ -665,4 +665,14 @@ pub fn run(a: &Args) -> CliResult {
         print_self_contact(s);
     }
     Ok(())
+}
+
+/// A length in scene units: six decimals, or six significant digits in scientific notation
+/// below 1e-3 and from 1e9 (a rig in other units printed its joint sizes as `0.000000`).
+fn length(x: f64) -> String {
+    if x != 0.0 && (x.abs() < 1e-3 || x.abs() >= 1e9) {
+        format!("{x:.5e}")
+    } else {
+        format!("{x:.6}")
+    }
 }
