@@ -7,7 +7,8 @@
 use contact_skin::config::{ContactConfig, SelfContactSettings};
 use contact_skin::frames::{self, Frame, Precomputed};
 use contact_skin::pass::{
-    rest_bodies, BodyDiagnostics as PassBodyDiagnostics, ContactPass, PassOutput, StageTimings,
+    rest_bodies, BodyDiagnostics as PassBodyDiagnostics, ContactPass, ContactSummary, PassOutput,
+    StageTimings,
 };
 pub use contact_skin::report::timings::{median, median_folds, median_stages, FoldMs};
 use contact_skin::rig::Rig;
@@ -346,66 +347,83 @@ pub struct ContactDiagnostics {
 
 /// The diagnostics of a frame, per file vertex.
 pub fn diagnostics(rig: &Rig, pre: &Precomputed, c: &ContactFrame) -> FrameDiagnostics {
-    let bodies = rig
-        .bodies
+    let so = c.self_output.as_ref();
+    FrameDiagnostics {
+        frame: c.frame.index,
+        time: c.frame.time,
+        bodies: (0..rig.bodies.len())
+            .map(|b| body_diagnostics(rig, pre, c, b))
+            .collect(),
+        contacts: c
+            .output
+            .contacts
+            .iter()
+            .map(|s| contact_diagnostics(rig, s))
+            .collect(),
+        later_contacts: c.output.later_contacts,
+        contacts_without_direction: c.output.pairs_without_direction,
+        contacts_failed: c.output.failed.clone(),
+        timings_s: c.output.timings,
+        folds: so.map_or(Vec::new(), fold_diagnostics),
+        folds_without_direction: so.map_or(0, |s| s.no_direction),
+        folds_unbalanced: so.map_or(0, |s| s.unbalanced),
+        folds_failed: so.map_or(Vec::new(), |s| s.failed.clone()),
+        self_contact_s: c.self_wall,
+    }
+}
+
+/// Body `b`'s fields of the contact pass and its displacement over both passes, per file
+/// vertex.
+fn body_diagnostics(rig: &Rig, pre: &Precomputed, c: &ContactFrame, b: usize) -> BodyDiagnostics {
+    let w = &pre.welded[b];
+    let d = c.output.diagnostics_of(b).unwrap_or_else(|| {
+        std::borrow::Cow::Owned(PassBodyDiagnostics::unchanged(w.representative.len()))
+    });
+    let v3 = |v: &nalgebra::Vector3<f64>| [v.x, v.y, v.z];
+    BodyDiagnostics {
+        index: b,
+        name: rig.bodies[b].name.clone(),
+        vertices: rig.bodies[b].vertex_count(),
+        deformed: d.stats.is_some(),
+        u: w.scatter(&d.u),
+        zone: w.scatter(&d.zone).into_iter().map(u8::from).collect(),
+        displacement: c.frame.bodies[b]
+            .positions
+            .iter()
+            .zip(&c.input.bodies[b].positions)
+            .map(|(o, i)| v3(&(o - i)))
+            .collect(),
+        amplitude: w.scatter(&d.amplitude),
+        slope: w.scatter(&d.slope),
+        bulge: w.scatter(&d.bulge).iter().map(v3).collect(),
+    }
+}
+
+/// One contact between bodies.
+fn contact_diagnostics(rig: &Rig, s: &ContactSummary) -> ContactDiagnostics {
+    let k = &s.contact;
+    let d = k.sides[0].direction;
+    ContactDiagnostics {
+        bodies: s.bodies,
+        names: s.bodies.map(|b| rig.bodies[b].name.clone()),
+        threshold: k.threshold,
+        mean_depth: k.mean_depth,
+        depth_deviation: k.depth_deviation,
+        zone_sizes: k.sides.each_ref().map(|side| side.zone.vertices.len()),
+        direction: [d.x, d.y, d.z],
+    }
+}
+
+/// The folds of the self-contact pass, in the order they ran, each with its sweep (how many
+/// times the same fold ran before it this frame).
+fn fold_diagnostics(s: &SelfPassOutput) -> Vec<FoldDiagnostics> {
+    s.folds
         .iter()
-        .enumerate()
-        .map(|(b, body)| {
-            let w = &pre.welded[b];
-            let d = c.output.diagnostics_of(b).unwrap_or_else(|| {
-                std::borrow::Cow::Owned(PassBodyDiagnostics::unchanged(w.representative.len()))
-            });
-            let v3 = |v: &nalgebra::Vector3<f64>| [v.x, v.y, v.z];
-            BodyDiagnostics {
-                index: b,
-                name: body.name.clone(),
-                vertices: body.vertex_count(),
-                deformed: d.stats.is_some(),
-                u: w.scatter(&d.u),
-                zone: w.scatter(&d.zone).into_iter().map(u8::from).collect(),
-                displacement: c.frame.bodies[b]
-                    .positions
-                    .iter()
-                    .zip(&c.input.bodies[b].positions)
-                    .map(|(o, i)| v3(&(o - i)))
-                    .collect(),
-                amplitude: w.scatter(&d.amplitude),
-                slope: w.scatter(&d.slope),
-                bulge: w.scatter(&d.bulge).iter().map(v3).collect(),
-            }
-        })
-        .collect();
-    let contacts = c
-        .output
-        .contacts
-        .iter()
-        .map(|s| {
-            let k = &s.contact;
-            let d = k.sides[0].direction;
-            ContactDiagnostics {
-                bodies: s.bodies,
-                names: s.bodies.map(|b| rig.bodies[b].name.clone()),
-                threshold: k.threshold,
-                mean_depth: k.mean_depth,
-                depth_deviation: k.depth_deviation,
-                zone_sizes: [
-                    k.sides[0].zone.vertices.len(),
-                    k.sides[1].zone.vertices.len(),
-                ],
-                direction: [d.x, d.y, d.z],
-            }
-        })
-        .collect();
-    let folds = c
-        .self_output
-        .iter()
-        .flat_map(|s| &s.folds)
         .enumerate()
         .map(|(k, f)| {
             let o = &f.output;
-            let all = c.self_output.iter().flat_map(|s| &s.folds);
-            let sweep = all
-                .take(k)
+            let sweep = s.folds[..k]
+                .iter()
                 .filter(|g| g.body == f.body && g.name == f.name)
                 .count();
             FoldDiagnostics {
@@ -413,10 +431,11 @@ pub fn diagnostics(rig: &Rig, pre: &Precomputed, c: &ContactFrame) -> FrameDiagn
                 name: f.name.clone(),
                 sweep,
                 direction: [f.direction.x, f.direction.y, f.direction.z],
-                zone_sizes: [
-                    o.contact.sides[0].zone.vertices.len(),
-                    o.contact.sides[1].zone.vertices.len(),
-                ],
+                zone_sizes: o
+                    .contact
+                    .sides
+                    .each_ref()
+                    .map(|side| side.zone.vertices.len()),
                 threshold: o.contact.threshold,
                 crease_cut: o.crease.value,
                 crease_stray: o.crease.stray,
@@ -429,25 +448,7 @@ pub fn diagnostics(rig: &Rig, pre: &Precomputed, c: &ContactFrame) -> FrameDiagn
                 timings_s: o.timings,
             }
         })
-        .collect();
-    FrameDiagnostics {
-        frame: c.frame.index,
-        time: c.frame.time,
-        bodies,
-        contacts,
-        later_contacts: c.output.later_contacts,
-        contacts_without_direction: c.output.pairs_without_direction,
-        contacts_failed: c.output.failed.clone(),
-        timings_s: c.output.timings,
-        folds,
-        folds_without_direction: c.self_output.as_ref().map_or(0, |s| s.no_direction),
-        folds_unbalanced: c.self_output.as_ref().map_or(0, |s| s.unbalanced),
-        folds_failed: c
-            .self_output
-            .as_ref()
-            .map_or(Vec::new(), |s| s.failed.clone()),
-        self_contact_s: c.self_wall,
-    }
+        .collect()
 }
 
 /// The diagnostics file name of frame `index`: `frame_NNNN.diag.json`.
