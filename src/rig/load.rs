@@ -128,7 +128,7 @@ fn load_impl(file: &Path, bytes: &[u8], folder: Option<&Path>) -> Result<Rig, Ri
     let skins = read_skins(&src, doc)?;
     let (bodies, extra_attributes) = read_bodies(&src, doc, &skins, &mut warnings)?;
     let animations = read_animations(&src, doc, &mut warnings)?;
-    let rig = Rig {
+    let mut rig = Rig {
         source: file.to_path_buf(),
         nodes,
         node_order,
@@ -139,6 +139,7 @@ fn load_impl(file: &Path, bytes: &[u8], folder: Option<&Path>) -> Result<Rig, Ri
         warnings,
     };
     check_rest_pose(file, &rig)?;
+    super::orientation::face_outward(&mut rig);
     Ok(rig)
 }
 

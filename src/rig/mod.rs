@@ -9,6 +9,7 @@ pub mod accessor;
 pub mod animation;
 mod error;
 mod load;
+mod orientation;
 pub mod skeleton;
 mod weights;
 

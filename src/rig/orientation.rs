@@ -1,0 +1,56 @@
+//! Bodies their skin mirrors: a skinned mesh's orientation at rest.
+//!
+//! Every stage after loading assumes that a posed body's triangles wind counter-clockwise seen
+//! from outside (outward normals, inside where the winding number is 1). A skin whose
+//! matrices have a negative determinant (a left hand made from a right one by a scale of -1
+//! on its armature) poses the file's outward winding inside out: the passes then saw no
+//! interpenetration at all, or deformed the wrong way (found on the committed scenes under a
+//! root scaled by `[-1, 1, 1]`: the capsule's 23 frames with a fold became none). Such a body's
+//! triangles are reversed and its bind normals negated once, at load, so that it faces out
+//! when posed (the cofactor that carries normals to the pose turns them with the winding).
+//! The glTF rule that the determinant of the *node's* transform decides the winding does not
+//! apply to a skinned mesh, whose node transform is ignored: the skin's matrices decide here.
+
+use super::{Body, Rig};
+use nalgebra::{Matrix3, Matrix4};
+
+/// Reverses the winding and normals of every body that its skin mirrors at rest, with a
+/// warning naming it.
+pub(super) fn face_outward(rig: &mut Rig) {
+    let pose = rig.pose_at(None, 0.0);
+    for body in &mut rig.bodies {
+        let mats = pose.skin_matrices(&rig.skins[body.skin]);
+        if !mirrored(body, &mats) {
+            continue;
+        }
+        for t in &mut body.triangles {
+            t.swap(1, 2);
+        }
+        for n in &mut body.normals {
+            *n = -*n;
+        }
+        rig.warnings.push(format!(
+            "body '{}' (meshes[{}]): its skin mirrors it at rest (negative determinant): its \
+             triangles' winding and normals reversed, so that it faces out",
+            body.name, body.mesh
+        ));
+    }
+}
+
+/// Whether more of `body`'s vertices are posed at rest by a blended linear map (`Σ w_j A_j`,
+/// LBS's) of negative determinant than of positive.
+fn mirrored(body: &Body, mats: &[Matrix4<f64>]) -> bool {
+    let mut balance = 0i64;
+    for v in 0..body.weights.len() {
+        let (joints, weights) = body.weights.row_slices(v);
+        let mut linear = Matrix3::zeros();
+        for (&j, &w) in joints.iter().zip(weights) {
+            if let Some(m) = mats.get(j as usize) {
+                linear += m.fixed_view::<3, 3>(0, 0) * w;
+            }
+        }
+        let d = linear.determinant();
+        balance += i64::from(d < 0.0) - i64::from(d > 0.0);
+    }
+    balance > 0
+}
