@@ -470,6 +470,9 @@ pub struct ObjectSpec {
     /// Painted bulge map: a text file (relative to the configuration's folder) or
     /// `attribute:NAME`.
     pub bulge_map: Option<String>,
+    /// `false`: the body takes part in no contact between bodies
+    /// ([`crate::pass::ObjectParams::contact`]).
+    pub contact: Option<bool>,
 }
 
 impl ObjectSpec {
@@ -504,6 +507,8 @@ pub struct PairSpec {
     /// Keyframed mapping directions `[time, x, y, z]`.
     #[serde(default, deserialize_with = "exact::option_list")]
     pub direction_keys: Option<Vec<[f64; 4]>>,
+    /// `false`: the pair is not resolved ([`crate::pass::PairOverride::enabled`]).
+    pub enabled: Option<bool>,
 }
 
 /// The `[self_contact]` table as written (every value optional).
@@ -1137,6 +1142,7 @@ impl ContactConfig {
             }
             seen[b] = Some(i);
             params[b] = object_params(&self.defaults.overlay(&o.params()), sizes[b]);
+            params[b].contact = o.contact.unwrap_or(true);
             if let Some(map) = &o.bulge_map {
                 let field = format!("{at}.bulge_map");
                 params[b].painted = Some(self.painted(rig, &welded[b], b, map, &field)?);
@@ -1201,6 +1207,7 @@ impl ContactConfig {
                 tau: p.tau,
                 safeguard_angle: p.safeguard_angle,
                 direction: self.direction_track(p, &at)?,
+                enabled: p.enabled.unwrap_or(true),
             });
         }
         Ok(out)
@@ -1240,6 +1247,7 @@ fn object_params(p: &ParamSpec, rest_size: f64) -> ObjectParams {
         gamma: p.gamma.unwrap_or(d.gamma),
         omega: p.omega.unwrap_or(d.omega),
         painted: None,
+        contact: d.contact,
     }
 }
 

@@ -65,6 +65,10 @@ pub struct ObjectParams {
     pub omega: f64,
     /// Painted bulge map per welded vertex (multiplies `η`; negative values allowed).
     pub painted: Option<Vec<f64>>,
+    /// Whether the object takes part in contacts between bodies (`[[object]] contact =
+    /// false`: an outline shell, a garment layered on the skin, a duplicate, which the pass
+    /// would take for one deep interpenetration and crumple).
+    pub contact: bool,
 }
 
 impl Default for ObjectParams {
@@ -76,6 +80,7 @@ impl Default for ObjectParams {
             gamma: 1.0,
             omega: 2.0,
             painted: None,
+            contact: true,
         }
     }
 }
@@ -91,6 +96,9 @@ pub struct PairOverride {
     pub safeguard_angle: Option<f64>,
     /// Mapping direction, outward for `bodies[0]` (constant or keyframed).
     pub direction: Option<DirectionTrack>,
+    /// Whether the pair is resolved (`[[pair]] enabled = false` leaves the two bodies as they
+    /// come where they meet).
+    pub enabled: bool,
 }
 
 /// A user mapping direction over time (2021 Sec. 4.1: "specify it manually and even key-frame
@@ -182,6 +190,26 @@ pub enum PassError {
     /// Inputs do not match the bodies.
     #[error("{0}")]
     Mismatch(String),
+}
+
+/// Which pass of a frame runs ([`ContactPass::run_at`]): the first sees the skinned input, a
+/// later one the contact surfaces of the passes before
+/// ([`crate::contact::PairParams::refuse_coincident`]) and leaves out the pairs that failed
+/// in them (a pair refused as coincident would be resolved there).
+#[derive(Clone, Copy, Debug)]
+enum Pass<'a> {
+    First,
+    Later { failed: &'a [FailedContact] },
+}
+
+impl Pass<'_> {
+    /// Whether the pair `(a, b)` is tried in this pass.
+    fn tries(&self, a: usize, b: usize) -> bool {
+        match self {
+            Pass::First => true,
+            Pass::Later { failed } => !failed.iter().any(|f| f.bodies == [a.min(b), a.max(b)]),
+        }
+    }
 }
 
 /// The contacts of one pass over the candidate pairs ([`ContactPass::contacts`]).
@@ -515,9 +543,12 @@ impl ContactPass {
         positions: &[Vec<Point3<f64>>],
         time: f64,
     ) -> Result<PassOutput, PassError> {
-        let mut out = self.run_once(positions, time)?;
+        let mut out = self.run_once(positions, time, Pass::First)?;
         for _ in 1..self.passes {
-            let next = self.run_once(&out.positions, time)?;
+            let pass = Pass::Later {
+                failed: &out.failed,
+            };
+            let next = self.run_once(&out.positions, time, pass)?;
             if next.contacts.is_empty() {
                 break;
             }
@@ -534,11 +565,17 @@ impl ContactPass {
         Ok(out)
     }
 
-    fn run_once(&self, positions: &[Vec<Point3<f64>>], time: f64) -> Result<PassOutput, PassError> {
+    fn run_once(
+        &self,
+        positions: &[Vec<Point3<f64>>],
+        time: f64,
+        pass: Pass,
+    ) -> Result<PassOutput, PassError> {
         let wall = Instant::now();
         self.check_counts(positions)?;
         let boxes = self.boxes(positions)?;
-        let pairs = self.candidate_pairs(&boxes);
+        let mut pairs = self.candidate_pairs(&boxes);
+        pairs.retain(|&(a, b)| pass.tries(a, b));
         let posed = self.posed(positions, &pairs)?;
         let mut timings = StageTimings {
             setup: wall.elapsed().as_secs_f64(),
@@ -547,7 +584,7 @@ impl ContactPass {
         // Each body's normals made at its first contact (none in a frame without one).
         let normals: Vec<OnceLock<Vec<Vector3<f64>>>> =
             positions.iter().map(|_| OnceLock::new()).collect();
-        let found = self.contacts(positions, &normals, &posed, &pairs, time);
+        let found = self.contacts(positions, &normals, &posed, &pairs, time, pass);
         let normals: Vec<Vec<Vector3<f64>>> = normals
             .into_iter()
             .map(|n| n.into_inner().unwrap_or_default())
@@ -653,18 +690,23 @@ impl ContactPass {
             .collect()
     }
 
-    /// The body pairs to resolve: both in size, their boxes overlapping.
+    /// The body pairs to resolve: both in size and taking part in contacts, the pair not
+    /// disabled, their boxes overlapping.
     fn candidate_pairs(&self, boxes: &[Option<Aabb>]) -> Vec<(usize, usize)> {
         let sized: Vec<bool> = (0..boxes.len())
-            .map(|b| self.in_size(b, boxes[b].as_ref()))
+            .map(|b| self.params[b].contact && self.in_size(b, boxes[b].as_ref()))
             .collect();
+        let enabled = |a: usize, b: usize| {
+            let bodies = |o: &&PairOverride| o.bodies == [a, b] || o.bodies == [b, a];
+            self.overrides.iter().find(bodies).is_none_or(|o| o.enabled)
+        };
         let overlap = |a: usize, b: usize| match (&boxes[a], &boxes[b]) {
             (Some(x), Some(y)) => x.overlaps(y),
             _ => false,
         };
         (0..boxes.len())
             .flat_map(|a| (a + 1..boxes.len()).map(move |b| (a, b)))
-            .filter(|&(a, b)| sized[a] && sized[b])
+            .filter(|&(a, b)| sized[a] && sized[b] && enabled(a, b))
             .filter(|&(a, b)| overlap(a, b))
             .collect()
     }
@@ -677,6 +719,7 @@ impl ContactPass {
         posed: &[Option<PosedMesh>],
         pairs: &[(usize, usize)],
         time: f64,
+        pass: Pass,
     ) -> FoundContacts {
         // Area-weighted vertex normals of body `k`, made once, when a contact first needs them.
         let normals_of = |k: usize| -> &[Vector3<f64>] {
@@ -707,7 +750,10 @@ impl ContactPass {
                 resolve_pair_lazily(
                     [pa, pb],
                     |k| normals_of(bodies[k]),
-                    &self.pair_params(a, b, time),
+                    &PairParams {
+                        refuse_coincident: matches!(pass, Pass::First),
+                        ..self.pair_params(a, b, time)
+                    },
                 )
                 .map(|outcome| ([a, b], outcome))
                 .map_err(|source| FailedContact::new(&[a, b], &PassError::Contact { a, b, source }))

@@ -95,6 +95,7 @@ name = 1                        # the thumb, by index
 stiffness = "rigid"
 extent_factor = 0.5
 gamma = 0.0
+contact = false                 # meets nothing
 
 [[object]]
 name = "3"                      # the middle finger, by index as a string
@@ -109,6 +110,7 @@ direction = [0.0, 1.0, 0.0]
 [[pair]]
 objects = ["middle", "ball"]
 direction_keys = [[1.5, 1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 2.0], [0.5, 0.0, 1, 0]]
+enabled = false
 "#;
 
 #[test]
@@ -155,11 +157,18 @@ fn a_full_example_parses_and_resolves() {
         }
     );
     assert_eq!(params[3].omega, 0.0);
+    let contact: Vec<bool> = params.iter().map(|p| p.contact).collect();
+    assert_eq!(
+        contact,
+        [true, false, true, true],
+        "the thumb meets nothing"
+    );
     // pairs: bodies in the file's order, keyed directions sorted by time.
     assert_eq!(overrides.len(), 2);
     assert_eq!(overrides[0].bodies, [0, 2]);
     assert_eq!(overrides[0].tau, Some(0.6));
     assert_eq!(overrides[0].safeguard_angle, Some(70.0));
+    assert_eq!([overrides[0].enabled, overrides[1].enabled], [true, false]);
     let pre = contact_skin::frames::Precomputed::new(&rig, contact_skin::skinning::Method::Lbs);
     let rest = contact_skin::frames::welded_positions(&rig, &pre, None, 0.0);
     let bodies = contact_skin::pass::rest_bodies(&rest, &pre.welded);

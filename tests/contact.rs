@@ -459,6 +459,7 @@ fn keyframed_user_direction_drives_the_contact() {
         tau: None,
         safeguard_angle: None,
         direction: Some(track.clone()),
+        enabled: true,
     };
     let pass = l
         .pass(object_params(2, &[1.0], 0.0), vec![over])
@@ -558,5 +559,62 @@ fn entangled_bodies_fail_their_contact_and_are_left_as_they_came() {
         "{:?}",
         out.failed
     );
+    assert_eq!(out.positions, input);
+}
+
+/// `[[object]] contact = false` and `[[pair]] enabled = false`: the fingertips pressed into the
+/// ball at their deepest frame, with the thumb out of every contact, then with the ball and the
+/// index finger's pair disabled: what is left out is neither found nor moved, the others still
+/// resolve.
+#[test]
+fn bodies_and_pairs_left_out_of_the_contact_pass() {
+    use contact_skin::pass::PairOverride;
+    let l = load("fingertips_ball", 31);
+    let input = l.frame(30);
+    let met = |out: &PassOutput, body: usize| out.contacts.iter().any(|c| c.bodies.contains(&body));
+    let all = l
+        .pass(object_params(4, &[1.0], 0.0), vec![])
+        .run(&input)
+        .expect("runs");
+    assert!(
+        (1..4).all(|finger| met(&all, finger)),
+        "every fingertip meets the ball"
+    );
+    let mut params = object_params(4, &[1.0], 0.0);
+    params[1].contact = false;
+    let out = l.pass(params, vec![]).run(&input).expect("runs");
+    assert!(!met(&out, 1) && met(&out, 2) && met(&out, 3));
+    assert_eq!(out.positions[1], input[1], "the thumb as it came");
+    let disabled = PairOverride {
+        bodies: [2, 0],
+        tau: None,
+        safeguard_angle: None,
+        direction: None,
+        enabled: false,
+    };
+    let out = l
+        .pass(object_params(4, &[1.0], 0.0), vec![disabled])
+        .run(&input)
+        .expect("runs");
+    assert!(met(&out, 1) && !met(&out, 2) && met(&out, 3));
+    assert_eq!(out.positions[2], input[2], "the index finger as it came");
+}
+
+/// A body and its duplicate (a mesh instanced twice, or layered on itself) are not a contact:
+/// every face lies on its twin, and the pair fails as coincident, both bodies left as they came
+/// (resolved as a contact, the two fingers and their copy took 0.6 s per frame and turned 8962
+/// faces over; a duplicated capsule stops earlier, at the candidate pairs' budget).
+#[test]
+fn a_body_and_its_duplicate_are_not_a_contact() {
+    let l = load("two_fingers", 31);
+    let rest = welded_positions(&l.rig, &l.pre, 0.0, None);
+    let twice = [0, 0].map(|_| (rest[0].as_slice(), l.triangles[0].as_slice()));
+    let pass = ContactPass::new(&twice, object_params(2, &[1.0], 0.0), vec![]).expect("pass");
+    let frame = l.frame(20);
+    let input = vec![frame[0].clone(), frame[0].clone()];
+    let out = pass.run(&input).expect("runs");
+    assert!(out.contacts.is_empty());
+    assert_eq!(out.failed.len(), 1, "{:?}", out.failed);
+    assert!(out.failed[0].error.contains("coincide"), "{:?}", out.failed);
     assert_eq!(out.positions, input);
 }

@@ -71,6 +71,7 @@ fn a_symmetric_crossing_is_counted_and_a_configured_direction_resolves_it() {
         tau: None,
         safeguard_angle: None,
         direction: Some(DirectionTrack::constant(Vector3::y())),
+        enabled: true,
     };
     let params = bodies.iter().map(|_| ObjectParams::default()).collect();
     let pass = ContactPass::new(&bodies, params, vec![along_y]).expect("pass precomputes");

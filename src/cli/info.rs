@@ -46,6 +46,8 @@ struct ObjectInfo {
     bulge_map: Option<String>,
     /// Smallest and largest painted value (welded vertices).
     painted_range: Option<[f64; 2]>,
+    /// Takes part in contacts between bodies (`[[object]] contact = false`: not).
+    contact: bool,
 }
 
 /// One configured pair.
@@ -58,6 +60,8 @@ struct PairInfo {
     safeguard_angle: f64,
     /// `automatic`, `constant [x, y, z]` or `N keys from t0 to t1`.
     direction: String,
+    /// Resolved (`[[pair]] enabled = false`: not).
+    enabled: bool,
 }
 
 /// The contact configuration of the rig, resolved.
@@ -536,6 +540,7 @@ fn describe_contact(
                 let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
                 [lo, hi]
             }),
+            contact: p.contact,
         })
         .collect();
     let pairs = overrides
@@ -547,6 +552,7 @@ fn describe_contact(
             tau: o.tau,
             safeguard_angle: o.safeguard_angle.unwrap_or(DEFAULT_SAFEGUARD_ANGLE),
             direction: describe_direction(spec),
+            enabled: o.enabled,
         })
         .collect();
     Ok(Some(ContactInfo {
@@ -581,6 +587,13 @@ fn print_contact(c: &ContactInfo) {
             (Some(m), Some([lo, hi])) => format!(", bulge map {m} (values {lo} to {hi})"),
             _ => String::new(),
         };
+        if !o.contact {
+            println!(
+                "    object {} '{}': no contact between bodies (contact = false)",
+                o.body, o.name
+            );
+            continue;
+        }
         println!(
             "    object {} '{}'{}: stiffness {k}, tau {}, extent {}, gamma {}, omega {}{map}",
             o.body,
@@ -593,6 +606,13 @@ fn print_contact(c: &ContactInfo) {
         );
     }
     for p in &c.pairs {
+        if !p.enabled {
+            println!(
+                "    pair '{}' / '{}': not resolved (enabled = false)",
+                p.names[0], p.names[1]
+            );
+            continue;
+        }
         let tau = p.tau.map_or("from the objects".into(), |t| t.to_string());
         println!(
             "    pair '{}' / '{}': tau {tau}, safeguard {} deg, direction {}",

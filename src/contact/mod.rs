@@ -50,6 +50,13 @@ pub struct PairParams {
     pub safeguard_angle: f64,
     /// The mapping direction.
     pub direction: DirectionMode,
+    /// Whether two separate surfaces lying on each other are refused
+    /// ([`ContactError::Coincident`]; default true). On skinned input only a duplicated or
+    /// layered mesh puts faces exactly on each other; a contact pass after the first starts
+    /// from the contact surface both sides share by construction, where a rigid side's faces
+    /// hold the other's (the sphere on the slab: 352 vertices left 0.28 h deep when its second
+    /// pass refused them).
+    pub refuse_coincident: bool,
 }
 
 impl Default for PairParams {
@@ -59,6 +66,7 @@ impl Default for PairParams {
             tau: 0.0,
             safeguard_angle: zones::DEFAULT_SAFEGUARD_ANGLE,
             direction: DirectionMode::Automatic,
+            refuse_coincident: true,
         }
     }
 }
@@ -74,6 +82,7 @@ impl PairParams {
                 DirectionMode::Automatic => DirectionMode::Automatic,
                 DirectionMode::Fixed(d) => DirectionMode::Fixed(-d),
             },
+            refuse_coincident: self.refuse_coincident,
         }
     }
 }
@@ -144,7 +153,28 @@ pub enum ContactError {
         /// Normals.
         got: usize,
     },
+    /// Two separate surfaces lying on each other: exactly coplanar face pairs for at least
+    /// half the faces of the smaller one ([`COINCIDENT_FRACTION`]).
+    #[error(
+        "the surfaces coincide ({coplanar} exactly coplanar face pairs for {faces} faces): a \
+         duplicated or layered mesh, not a contact; `[[pair]] enabled = false` or \
+         `[[object]] contact = false` leaves it out"
+    )]
+    Coincident {
+        /// Coplanar face pairs.
+        coplanar: usize,
+        /// Faces of the smaller surface.
+        faces: usize,
+    },
 }
+
+/// Fraction of the smaller surface's faces that may be exactly coplanar with faces of the
+/// other before two separate surfaces count as coincident ([`ContactError::Coincident`]). A
+/// mesh and its duplicate have every face coplanar with its twin (the two fingers with a second
+/// copy of their body: 13760 pairs for 13760 faces); the committed scenes have none (coplanar
+/// pairs never cross under the predicates' perturbation, so the pass would resolve only the
+/// few real crossings of the copies, slowly, and turn thousands of faces over).
+pub const COINCIDENT_FRACTION: f64 = 0.5;
 
 /// Algorithm 1 for one pair: `None` when the surfaces do not intersect (or when the
 /// intersection has no area and no direction can be derived: a grazing touch).
@@ -218,7 +248,7 @@ pub fn resolve_pair_lazily<'m, 'a>(
     params: &PairParams,
 ) -> Result<PairOutcome, ContactError> {
     let start = Instant::now();
-    let Some(ints) = contact_curves(meshes, Surfaces::Separate)? else {
+    let Some(ints) = contact_curves(meshes, Surfaces::Separate, params)? else {
         return Ok(PairOutcome::Apart);
     };
     let [a, b] = [0, 1].map(|k| SideFrame {
@@ -242,18 +272,33 @@ fn check_normals(a: &SideFrame, b: &SideFrame) -> Result<(), ContactError> {
 }
 
 /// The intersection of the two sides when it amounts to a contact (curves longer than a
-/// touch), else `None`.
+/// touch), else `None`; separate surfaces lying on each other refused when `params` say so.
 fn contact_curves(
     meshes: [&PosedMesh; 2],
     surfaces: Surfaces,
+    params: &PairParams,
 ) -> Result<Option<Intersections>, ContactError> {
     let ints = match surfaces {
         Surfaces::PartsOfOneMesh(_) => Intersections::self_contact(meshes[0], meshes[1])?,
         Surfaces::Separate => Intersections::between(meshes[0], meshes[1])?,
     };
+    if matches!(surfaces, Surfaces::Separate) && params.refuse_coincident {
+        not_coincident(meshes, &ints)?;
+    }
     let touch = TOUCH_TOLERANCE * reach_of(meshes[0], meshes[1]);
     let contact = !(ints.is_empty() || curve_length(&ints) <= touch);
     Ok(contact.then_some(ints))
+}
+
+/// [`ContactError::Coincident`] when the intersection of two separate surfaces found them
+/// lying on each other.
+fn not_coincident(meshes: [&PosedMesh; 2], ints: &Intersections) -> Result<(), ContactError> {
+    let faces = meshes[0].triangles().len().min(meshes[1].triangles().len());
+    let coplanar = ints.stats.coplanar_pairs;
+    if coplanar > 0 && coplanar as f64 >= COINCIDENT_FRACTION * faces as f64 {
+        return Err(ContactError::Coincident { coplanar, faces });
+    }
+    Ok(())
 }
 
 fn resolve(
@@ -264,7 +309,7 @@ fn resolve(
 ) -> Result<PairOutcome, ContactError> {
     check_normals(&a, &b)?;
     let start = Instant::now();
-    let Some(ints) = contact_curves([a.mesh, b.mesh], surfaces)? else {
+    let Some(ints) = contact_curves([a.mesh, b.mesh], surfaces, params)? else {
         return Ok(PairOutcome::Apart);
     };
     resolve_intersecting(a, b, ints, start, params, surfaces)

@@ -596,6 +596,7 @@ fn truncated_contact(
         tau: params.tau,
         safeguard_angle: params.safeguard_angle,
         direction,
+        ..PairParams::default()
     };
     Ok(resolve_self_pair(side(0), side(1), &pair, tree)?)
 }
