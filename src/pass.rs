@@ -85,7 +85,7 @@ impl Default for ObjectParams {
     }
 }
 
-/// Per-pair overrides.
+/// Per-pair overrides ([`PairOverride::new`]: none).
 #[derive(Clone, Debug, PartialEq)]
 pub struct PairOverride {
     /// The two bodies (indices).
@@ -99,6 +99,20 @@ pub struct PairOverride {
     /// Whether the pair is resolved (`[[pair]] enabled = false` leaves the two bodies as they
     /// come where they meet).
     pub enabled: bool,
+}
+
+impl PairOverride {
+    /// No override of the pair `bodies`: the objects' parameters, the automatic direction,
+    /// resolved.
+    pub fn new(bodies: [usize; 2]) -> Self {
+        Self {
+            bodies,
+            tau: None,
+            safeguard_angle: None,
+            direction: None,
+            enabled: true,
+        }
+    }
 }
 
 /// A user mapping direction over time (2021 Sec. 4.1: "specify it manually and even key-frame
@@ -344,7 +358,10 @@ pub struct PassOutput {
     /// positions (the other side of its contacts is still deformed onto the shared contact
     /// surface). Until 2026-12-05 one such failure stopped the whole run; the input found to
     /// make one fail is a broken rig (a body sheared a billion-fold by a fuzzed inverse bind
-    /// matrix). Each failure once per frame, however many passes met it.
+    /// matrix). Each pair or body once per frame (its first error), however many passes met it;
+    /// a body whose deformation failed in a later pass keeps the earlier passes' output. The
+    /// contacts of a body whose deformation failed still count in [`PassOutput::contacts`]
+    /// (their other sides were deformed).
     pub failed: Vec<FailedContact>,
 }
 
@@ -549,6 +566,13 @@ impl ContactPass {
                 failed: &out.failed,
             };
             let next = self.run_once(&out.positions, time, pass)?;
+            // Failures first: a later pass whose only contact failed moves nothing, but its
+            // failure is the frame's.
+            for f in next.failed {
+                if !out.failed.iter().any(|g| g.bodies == f.bodies) {
+                    out.failed.push(f);
+                }
+            }
             if next.contacts.is_empty() {
                 break;
             }
@@ -556,11 +580,6 @@ impl ContactPass {
             out.positions = next.positions;
             out.later_contacts += next.contacts.len();
             out.pairs_without_direction += next.pairs_without_direction;
-            for f in next.failed {
-                if !out.failed.contains(&f) {
-                    out.failed.push(f);
-                }
-            }
         }
         Ok(out)
     }
@@ -696,9 +715,10 @@ impl ContactPass {
         let sized: Vec<bool> = (0..boxes.len())
             .map(|b| self.params[b].contact && self.in_size(b, boxes[b].as_ref()))
             .collect();
+        // Disabled by any override of the pair (the configuration allows one per pair).
         let enabled = |a: usize, b: usize| {
-            let bodies = |o: &&PairOverride| o.bodies == [a, b] || o.bodies == [b, a];
-            self.overrides.iter().find(bodies).is_none_or(|o| o.enabled)
+            let bodies = |o: &PairOverride| o.bodies == [a, b] || o.bodies == [b, a];
+            !self.overrides.iter().any(|o| bodies(o) && !o.enabled)
         };
         let overlap = |a: usize, b: usize| match (&boxes[a], &boxes[b]) {
             (Some(x), Some(y)) => x.overlaps(y),

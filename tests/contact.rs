@@ -455,11 +455,8 @@ fn keyframed_user_direction_drives_the_contact() {
     ])
     .expect("valid keys");
     let over = PairOverride {
-        bodies: [0, 1],
-        tau: None,
-        safeguard_angle: None,
         direction: Some(track.clone()),
-        enabled: true,
+        ..PairOverride::new([0, 1])
     };
     let pass = l
         .pass(object_params(2, &[1.0], 0.0), vec![over])
@@ -586,11 +583,8 @@ fn bodies_and_pairs_left_out_of_the_contact_pass() {
     assert!(!met(&out, 1) && met(&out, 2) && met(&out, 3));
     assert_eq!(out.positions[1], input[1], "the thumb as it came");
     let disabled = PairOverride {
-        bodies: [2, 0],
-        tau: None,
-        safeguard_angle: None,
-        direction: None,
         enabled: false,
+        ..PairOverride::new([2, 0])
     };
     let out = l
         .pass(object_params(4, &[1.0], 0.0), vec![disabled])
@@ -617,4 +611,51 @@ fn a_body_and_its_duplicate_are_not_a_contact() {
     assert_eq!(out.failed.len(), 1, "{:?}", out.failed);
     assert!(out.failed[0].error.contains("coincide"), "{:?}", out.failed);
     assert_eq!(out.positions, input);
+}
+
+/// Coincidence counts faces, not face pairs: a 12-triangle cube resting exactly on another
+/// (the top of one in the plane of the bottom of the other, offset sideways: a few faces of
+/// each coplanar, each with several partners) is a touch, while a cube and its duplicate
+/// (every face on its twin) are refused as coincident.
+#[test]
+fn a_box_resting_on_another_is_not_coincident_but_its_duplicate_is() {
+    let cube = |o: [f64; 3]| -> Vec<Point3<f64>> {
+        (0..8)
+            .map(|i| {
+                let c = |bit: usize| f64::from(u8::from(i & bit != 0));
+                Point3::new(o[0] + c(1), o[1] + c(2), o[2] + c(4))
+            })
+            .collect()
+    };
+    let quads = [
+        [0, 2, 3, 1],
+        [4, 5, 7, 6],
+        [0, 1, 5, 4],
+        [2, 6, 7, 3],
+        [0, 4, 6, 2],
+        [1, 3, 7, 5],
+    ];
+    let triangles: Vec<[u32; 3]> = quads
+        .iter()
+        .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
+        .collect();
+    let run = |other: Vec<Point3<f64>>| {
+        let bodies = [cube([0.0; 3]), other];
+        let rest: Vec<_> = bodies
+            .iter()
+            .map(|p| (p.as_slice(), triangles.as_slice()))
+            .collect();
+        let pass = ContactPass::new(&rest, object_params(2, &[1.0], 0.0), vec![]).expect("pass");
+        pass.run(&bodies).expect("runs")
+    };
+    let resting = run(cube([0.4, 0.3, 1.0]));
+    assert!(resting.failed.is_empty(), "{:?}", resting.failed);
+    assert!(resting.contacts.is_empty(), "a touch");
+    let duplicate = run(cube([0.0; 3]));
+    assert_eq!(duplicate.failed.len(), 1);
+    assert!(
+        duplicate.failed[0].error.contains("coincide"),
+        "{:?}",
+        duplicate.failed
+    );
 }

@@ -67,11 +67,8 @@ fn a_symmetric_crossing_is_counted_and_a_configured_direction_resolves_it() {
     assert!(out.contacts.is_empty());
     assert_eq!(out.positions, input);
     let along_y = PairOverride {
-        bodies: [0, 1],
-        tau: None,
-        safeguard_angle: None,
         direction: Some(DirectionTrack::constant(Vector3::y())),
-        enabled: true,
+        ..PairOverride::new([0, 1])
     };
     let params = bodies.iter().map(|_| ObjectParams::default()).collect();
     let pass = ContactPass::new(&bodies, params, vec![along_y]).expect("pass precomputes");

@@ -1517,3 +1517,47 @@ fn hole_in_a_face_from_a_dent() {
     let expected = Vector3::new(-hole * c.x, -hole * c.y, 16.0 - hole);
     assert!((m - expected).norm() <= 1e-13, "{m:?} vs {expected:?}");
 }
+
+/// A coarse surface against a fine one is a contact, not an entanglement: an 8-sided tube
+/// 6 long (16 triangles), tilted along the diagonal through a 20480-face unit sphere, has
+/// long faces whose boxes each hold the whole sphere (more candidate pairs than 8 per face of
+/// both surfaces, the plain budget), and the bounded query scales its budget by the ratio of
+/// the two surfaces' face counts.
+#[test]
+fn bounded_queries_allow_coarse_against_fine() {
+    let sphere = meshes::icosphere(5);
+    let axis = Vector3::new(1.0, 1.0, 1.0).normalize();
+    let [u, v] = contact_skin::contact::mapping::orthonormal_basis(&axis);
+    let mut tube = Vec::new();
+    for k in 0..8 {
+        let a = k as f64 * std::f64::consts::TAU / 8.0;
+        let ring = (u * a.cos() + v * a.sin()) * 0.3;
+        tube.push(Point3::from(ring - axis * 3.0));
+        tube.push(Point3::from(ring + axis * 3.0));
+    }
+    let tube_triangles: Vec<[u32; 3]> = (0..8u32)
+        .flat_map(|k| {
+            let (a, b) = (2 * k, 2 * ((k + 1) % 8));
+            [[a, b, b + 1], [a, b + 1, a + 1]]
+        })
+        .collect();
+    let ints = contact_skin::intersect::intersect_meshes(
+        &sphere.positions,
+        &sphere.triangles,
+        &tube,
+        &tube_triangles,
+    )
+    .expect("a contact, not an entanglement");
+    let faces = sphere.triangles.len() + tube_triangles.len();
+    assert!(
+        ints.stats.candidate_pairs > 8 * faces,
+        "{} candidates for {faces} faces",
+        ints.stats.candidate_pairs
+    );
+    assert_eq!(
+        ints.curves.len(),
+        2,
+        "the tube enters and leaves the sphere"
+    );
+    assert!(ints.curves.iter().all(|c| c.closed));
+}

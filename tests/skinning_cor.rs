@@ -257,6 +257,27 @@ fn common_similarity_is_that_similarity() {
         let err = max_distance(&scaled.positions, &expected) / (scale * rest_size);
         assert!(err < 1e-12, "× {scale}: bend error {err:e} of the size");
     }
+    // A common stretch that is not a similarity: the blended stretch is the joints' own, so
+    // every vertex goes where the matrix takes it, its normal by the matrix's cofactor.
+    let m = Translation3::new(0.3, -2.0, 5.0).to_homogeneous()
+        * rotation_about(
+            Point3::new(1.0, 2.0, 3.0),
+            Vector3::new(1.0, 2.0, -0.5),
+            2.2,
+        )
+        * Matrix4::new_nonuniform_scaling(&Vector3::new(2.0, 1.0, 0.5));
+    let out = cor::skin(&body, &centers, &[m, m]);
+    let expected: Vec<Point3<f64>> = body
+        .positions
+        .iter()
+        .map(|p| m.transform_point(p))
+        .collect();
+    assert!(max_distance(&out.positions, &expected) < 1e-12 * 2.0 * rest_size);
+    let a = m.fixed_view::<3, 3>(0, 0).into_owned();
+    let cof = a.try_inverse().expect("invertible").transpose() * a.determinant();
+    for (n, n0) in out.normals.iter().zip(&body.normals) {
+        assert!((n - (cof * n0).normalize()).norm() < 1e-12);
+    }
 }
 
 #[test]

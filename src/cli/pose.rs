@@ -173,7 +173,7 @@ struct Summary {
     /// Folds that failed (a factorization, the intersection, …) and were left as they were
     /// while the pass went on, summed over the frames (a warning naming the first).
     folds_failed: usize,
-    /// The first fold that failed: `frame N, fold NAME: error`.
+    /// The first fold that failed: `frame N: fold NAME: error`.
     first_fold_failure: Option<String>,
     /// Vertices whose displacement the turn guard scaled back so that no face turns over,
     /// summed over the folds and frames.
@@ -440,9 +440,8 @@ fn summarize(
         contact_frames: stats.iter().filter(|s| s.contacts > 0).count(),
         contacts_without_direction: stats.iter().map(|s| s.contacts_without_direction).sum(),
         contacts_failed: stats.iter().map(|s| s.contacts_failed.len()).sum(),
-        first_contact_failure: stats.iter().enumerate().find_map(|(i, s)| {
-            let f = s.contacts_failed.first()?;
-            Some(format!("frame {i}: {}", f.error))
+        first_contact_failure: first_failure(stats, |s| {
+            s.contacts_failed.first().map(|f| f.error.clone())
         }),
         vertices: rig.vertex_count(),
         files: files.iter().map(|p| p.display().to_string()).collect(),
@@ -462,7 +461,10 @@ fn summarize(
         folds_without_direction: stats.iter().map(|s| s.folds_without_direction).sum(),
         folds_unbalanced: stats.iter().map(|s| s.folds_unbalanced).sum(),
         folds_failed: stats.iter().map(|s| s.folds_failed.len()).sum(),
-        first_fold_failure: first_fold_failure(stats),
+        first_fold_failure: first_failure(stats, |s| {
+            let f = s.folds_failed.first()?;
+            Some(format!("fold {}: {}", f.name, f.error))
+        }),
         vertices_guarded: stats.iter().map(|s| s.vertices_guarded).sum(),
         bulges_guarded: stats.iter().map(|s| s.bulges_guarded).sum(),
         sweeps_max: stats.iter().map(|s| s.sweeps).max().unwrap_or(0),
@@ -473,12 +475,15 @@ fn summarize(
     }
 }
 
-/// `frame N, fold NAME: error` of the first fold that failed.
-fn first_fold_failure(stats: &[FrameStats]) -> Option<String> {
-    stats.iter().enumerate().find_map(|(i, s)| {
-        let f = s.folds_failed.first()?;
-        Some(format!("frame {i}, fold {}: {}", f.name, f.error))
-    })
+/// `frame N: what` of the first frame where `what` says something failed.
+fn first_failure(
+    stats: &[FrameStats],
+    what: impl Fn(&FrameStats) -> Option<String>,
+) -> Option<String> {
+    stats
+        .iter()
+        .enumerate()
+        .find_map(|(i, s)| Some(format!("frame {i}: {}", what(s)?)))
 }
 
 fn print_summary(s: &Summary, a: &Args) -> CliResult {
@@ -492,8 +497,9 @@ fn print_summary(s: &Summary, a: &Args) -> CliResult {
     }
     if let Some(first) = &s.first_contact_failure {
         eprintln!(
-            "warning: {} contact(s) between bodies failed and were left as skinned, the others \
-             resolved (first: {first})",
+            "warning: {} contact(s) or deformation(s) between bodies failed and were left as \
+             skinned, the others resolved (first: {first}); `[[pair]] enabled = false` or \
+             `[[object]] contact = false` in the configuration leaves a pair or a body out",
             s.contacts_failed
         );
     }

@@ -153,27 +153,28 @@ pub enum ContactError {
         /// Normals.
         got: usize,
     },
-    /// Two separate surfaces lying on each other: exactly coplanar face pairs for at least
-    /// half the faces of the smaller one ([`COINCIDENT_FRACTION`]).
+    /// Two separate surfaces lying on each other: at least half the faces of one of them
+    /// exactly coplanar with faces of the other ([`COINCIDENT_FRACTION`]).
     #[error(
-        "the surfaces coincide ({coplanar} exactly coplanar face pairs for {faces} faces): a \
-         duplicated or layered mesh, not a contact; `[[pair]] enabled = false` or \
+        "the surfaces coincide ({coplanar} of one's {faces} faces exactly coplanar with the \
+         other's): a duplicated or layered mesh, not a contact; `[[pair]] enabled = false` or \
          `[[object]] contact = false` leaves it out"
     )]
     Coincident {
-        /// Coplanar face pairs.
+        /// Faces of that surface with a coplanar partner.
         coplanar: usize,
-        /// Faces of the smaller surface.
+        /// Its faces.
         faces: usize,
     },
 }
 
-/// Fraction of the smaller surface's faces that may be exactly coplanar with faces of the
-/// other before two separate surfaces count as coincident ([`ContactError::Coincident`]). A
-/// mesh and its duplicate have every face coplanar with its twin (the two fingers with a second
-/// copy of their body: 13760 pairs for 13760 faces); the committed scenes have none (coplanar
-/// pairs never cross under the predicates' perturbation, so the pass would resolve only the
-/// few real crossings of the copies, slowly, and turn thousands of faces over).
+/// Fraction of either surface's faces that may be exactly coplanar with faces of the other
+/// before two separate surfaces count as coincident ([`ContactError::Coincident`]). A mesh and
+/// its duplicate have every face coplanar with its twin (the two fingers with a second copy
+/// of their body: 13760 of 13760); a flat side resting exactly on another (a box on a floor)
+/// only its few faces there; the committed scenes none. Coplanar pairs never cross under the
+/// predicates' perturbation, so the pass would resolve only the few real crossings of the
+/// copies, slowly, and turn thousands of faces over.
 pub const COINCIDENT_FRACTION: f64 = 0.5;
 
 /// Algorithm 1 for one pair: `None` when the surfaces do not intersect (or when the
@@ -293,10 +294,11 @@ fn contact_curves(
 /// [`ContactError::Coincident`] when the intersection of two separate surfaces found them
 /// lying on each other.
 fn not_coincident(meshes: [&PosedMesh; 2], ints: &Intersections) -> Result<(), ContactError> {
-    let faces = meshes[0].triangles().len().min(meshes[1].triangles().len());
-    let coplanar = ints.stats.coplanar_pairs;
-    if coplanar > 0 && coplanar as f64 >= COINCIDENT_FRACTION * faces as f64 {
-        return Err(ContactError::Coincident { coplanar, faces });
+    for (k, mesh) in meshes.iter().enumerate() {
+        let (coplanar, faces) = (ints.stats.coplanar_faces[k], mesh.triangles().len());
+        if coplanar > 0 && coplanar as f64 >= COINCIDENT_FRACTION * faces as f64 {
+            return Err(ContactError::Coincident { coplanar, faces });
+        }
     }
     Ok(())
 }

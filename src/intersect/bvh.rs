@@ -411,7 +411,12 @@ impl TriangleBvh {
     }
 
     /// [`TriangleBvh::overlapping_pairs`], or [`IntersectError::Entangled`] as soon as the
-    /// candidates outnumber [`PAIRS_PER_FACE`] per face of both trees.
+    /// candidates outnumber [`PAIRS_PER_FACE`] per face of both trees, times the ratio of the
+    /// larger tree's faces to the smaller's (rounded up): each long face of a coarse surface
+    /// (a low-poly prop in a finely tessellated hand) has a box over many faces of the other,
+    /// and such a pair is a contact (`bounded_queries_allow_coarse_against_fine`: a 16-triangle
+    /// tube through a 20480-face sphere, more than 8 candidates per face); the trees of one
+    /// mesh's parts, as large as each other, keep the plain budget.
     pub fn overlapping_pairs_bounded<R, F>(
         &self,
         other: &TriangleBvh,
@@ -421,7 +426,9 @@ impl TriangleBvh {
         R: Send,
         F: Fn(u32, u32) -> Option<R> + Sync,
     {
-        let budget = pair_budget(self.faces.len() + other.faces.len());
+        let (a, b) = (self.faces.len(), other.faces.len());
+        let ratio = a.max(b).div_ceil(a.min(b).max(1));
+        let budget = pair_budget(a + b).saturating_mul(ratio);
         let pairs = self.pairs_in_tree_order(other, budget);
         entangled(&pairs, budget)?;
         Ok(visit_sorted(&pairs, visit))

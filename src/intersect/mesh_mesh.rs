@@ -76,6 +76,9 @@ pub struct IntersectionStats {
     pub adjacent_pairs_skipped: usize,
     /// Face pairs found exactly coplanar (they never intersect under the perturbation).
     pub coplanar_pairs: usize,
+    /// Distinct faces of each side in such a pair: every face of a surface and its duplicate,
+    /// the few faces of one flat side resting on another.
+    pub coplanar_faces: [usize; 2],
     /// Predicate evaluations that were exactly zero and decided by the symbolic perturbation
     /// (touching configurations).
     pub symbolic_ties: usize,
@@ -187,6 +190,8 @@ struct Counters {
     candidates: AtomicUsize,
     adjacent: AtomicUsize,
     coplanar: AtomicUsize,
+    /// The coplanar face pairs (rare but for coincident surfaces: a lock per pair found).
+    coplanar_pairs: std::sync::Mutex<Vec<[u32; 2]>>,
     degenerate: AtomicUsize,
     ties: AtomicUsize,
     anomalous: AtomicUsize,
@@ -198,6 +203,19 @@ impl Counters {
             c.fetch_add(n, Ordering::Relaxed);
         }
     }
+}
+
+/// The number of distinct faces of each side among the coplanar pairs.
+fn distinct_faces(counters: &Counters) -> [usize; 2] {
+    let Ok(pairs) = counters.coplanar_pairs.lock() else {
+        return [0, 0];
+    };
+    [0, 1].map(|k| {
+        let mut faces: Vec<u32> = pairs.iter().map(|p| p[k]).collect();
+        faces.sort_unstable();
+        faces.dedup();
+        faces.len()
+    })
 }
 
 /// The two hits of an intersecting face pair, `hits[0]` the start of the segment.
@@ -288,6 +306,7 @@ fn assemble(
             intersecting_pairs: segments.len(),
             adjacent_pairs_skipped: load(&counters.adjacent),
             coplanar_pairs: load(&counters.coplanar),
+            coplanar_faces: distinct_faces(counters),
             degenerate_pairs: load(&counters.degenerate),
             symbolic_ties: load(&counters.ties),
             index_degenerate_faces: index_degenerate,
@@ -378,6 +397,9 @@ impl<'p> Pair<'p> {
         Counters::add(&counters.ties, signs.iter().filter(|x| x.tie).count());
         if signs.iter().all(|x| x.tie && x.sign != 0) {
             Counters::add(&counters.coplanar, 1);
+            if let Ok(mut pairs) = counters.coplanar_pairs.lock() {
+                pairs.push(self.faces);
+            }
         }
         if signs.iter().all(|x| x.sign == 0) {
             Counters::add(&counters.degenerate, 1);

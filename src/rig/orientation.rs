@@ -15,12 +15,26 @@ use super::{Body, Rig};
 use nalgebra::{Matrix3, Matrix4};
 
 /// Reverses the winding and normals of every body that its skin mirrors at rest, with a
-/// warning naming it.
+/// warning naming it; a warning too for a skin that mirrors only some of a body's vertices
+/// (left as the majority has it).
 pub(super) fn face_outward(rig: &mut Rig) {
     let pose = rig.pose_at(None, 0.0);
     for body in &mut rig.bodies {
         let mats = pose.skin_matrices(&rig.skins[body.skin]);
-        if !mirrored(body, &mats) {
+        let [mirrored, kept] = orientations(body, &mats);
+        let mixed = if mirrored > 0 && kept > 0 {
+            format!(" ({mirrored} of its {} vertices mirrored)", mirrored + kept)
+        } else {
+            String::new()
+        };
+        if mirrored <= kept {
+            if mirrored > 0 {
+                rig.warnings.push(format!(
+                    "body '{}' (meshes[{}]): its skin mirrors some of it at rest{mixed}: \
+                     left as most of it faces",
+                    body.name, body.mesh
+                ));
+            }
             continue;
         }
         for t in &mut body.triangles {
@@ -30,17 +44,18 @@ pub(super) fn face_outward(rig: &mut Rig) {
             *n = -*n;
         }
         rig.warnings.push(format!(
-            "body '{}' (meshes[{}]): its skin mirrors it at rest (negative determinant): its \
-             triangles' winding and normals reversed, so that it faces out",
+            "body '{}' (meshes[{}]): its skin mirrors it at rest (negative determinant){mixed}: \
+             its triangles' winding and normals reversed, so that it faces out",
             body.name, body.mesh
         ));
     }
 }
 
-/// Whether more of `body`'s vertices are posed at rest by a blended linear map (`Σ w_j A_j`,
-/// LBS's) of negative determinant than of positive.
-fn mirrored(body: &Body, mats: &[Matrix4<f64>]) -> bool {
-    let mut balance = 0i64;
+/// How many of `body`'s vertices are posed at rest by a blended linear map (`Σ w_j A_j`,
+/// LBS's) of negative determinant, and how many of positive (a zero or NaN determinant counts
+/// in neither).
+fn orientations(body: &Body, mats: &[Matrix4<f64>]) -> [usize; 2] {
+    let mut counts = [0, 0];
     for v in 0..body.weights.len() {
         let (joints, weights) = body.weights.row_slices(v);
         let mut linear = Matrix3::zeros();
@@ -50,7 +65,11 @@ fn mirrored(body: &Body, mats: &[Matrix4<f64>]) -> bool {
             }
         }
         let d = linear.determinant();
-        balance += i64::from(d < 0.0) - i64::from(d > 0.0);
+        if d < 0.0 {
+            counts[0] += 1;
+        } else if d > 0.0 {
+            counts[1] += 1;
+        }
     }
-    balance > 0
+    counts
 }

@@ -124,11 +124,12 @@ fn separation(bulge: &BulgeStep, tri: &[[u32; 3]; 2]) -> f64 {
         .map_or(0.0, |d| d.distance * unit)
 }
 
-/// The power of two nearest `length` (1 for a length that is not positive and finite): a
-/// unit to divide by without rounding.
+/// The power of two nearest `length` (1 for a length that is not positive and finite; at most
+/// 2¹⁰²³, which `length` near `f64::MAX` would round past): a unit to divide by without
+/// rounding.
 fn unit_of(length: f64) -> f64 {
     if length > 0.0 && length.is_finite() {
-        length.log2().round().exp2()
+        length.log2().round().min(1023.0).exp2()
     } else {
         1.0
     }
