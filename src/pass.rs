@@ -238,12 +238,33 @@ struct FoundContacts {
 /// Precomputed per body.
 #[derive(Clone, Debug)]
 struct PassBody {
-    index: MeshIndex,
-    region: WorkingRegion,
+    /// Its tree and working region; `None` for a body that takes part in no contact
+    /// ([`ObjectParams::contact`]): nothing of it is precomputed (a layered shell left out
+    /// need not even suit a working region).
+    geometry: Option<BodyGeometry>,
+    vertex_count: usize,
     triangles: Vec<[u32; 3]>,
     deform: DeformParams,
     /// The rest bounding-box diagonal ([`COLLAPSED`]).
     rest_diagonal: f64,
+}
+
+/// The intersection index and the working region of a body in contacts.
+#[derive(Clone, Debug)]
+struct BodyGeometry {
+    index: MeshIndex,
+    region: WorkingRegion,
+}
+
+impl BodyGeometry {
+    fn new(body: usize, (pos, tris): RestBody) -> Result<Self, PassError> {
+        Ok(Self {
+            index: MeshIndex::new(pos, tris)
+                .map_err(|source| PassError::Intersect { body, source })?,
+            region: WorkingRegion::whole(tris, pos.len())
+                .map_err(|source| PassError::Solve { body, source })?,
+        })
+    }
 }
 
 /// A body posed smaller than this fraction of its rest bounding-box diagonal (a bone or the
@@ -457,11 +478,11 @@ impl ContactPass {
             .iter()
             .zip(&params)
             .enumerate()
-            .map(|(body, ((pos, tris), p))| {
-                let index = MeshIndex::new(pos, tris)
-                    .map_err(|source| PassError::Intersect { body, source })?;
-                let region = WorkingRegion::whole(tris, pos.len())
-                    .map_err(|source| PassError::Solve { body, source })?;
+            .map(|(body, (&(pos, tris), p))| {
+                let geometry = match p.contact {
+                    true => Some(BodyGeometry::new(body, (pos, tris))?),
+                    false => None,
+                };
                 let extent = p.extent.unwrap_or_else(|| {
                     DEFAULT_EXTENT_FACTOR * crate::mesh::surface_size(pos, tris)
                 });
@@ -472,11 +493,11 @@ impl ContactPass {
                     ..DeformParams::default()
                 };
                 Ok(PassBody {
-                    index,
-                    region,
+                    geometry,
+                    vertex_count: pos.len(),
                     triangles: tris.to_vec(),
                     deform,
-                    rest_diagonal: crate::mesh::bbox_diagonal(*pos),
+                    rest_diagonal: crate::mesh::bbox_diagonal(pos),
                 })
             })
             .collect::<Result<Vec<_>, PassError>>()?;
@@ -656,11 +677,11 @@ impl ContactPass {
             )));
         }
         for (body, (p, b)) in positions.iter().zip(&self.bodies).enumerate() {
-            if p.len() != b.index.vertex_count() {
+            if p.len() != b.vertex_count {
                 return Err(PassError::Intersect {
                     body,
                     source: IntersectError::PositionCount {
-                        expected: b.index.vertex_count(),
+                        expected: b.vertex_count,
                         got: p.len(),
                     },
                 });
@@ -676,15 +697,18 @@ impl ContactPass {
         let bodies = positions.iter().zip(&self.bodies).enumerate();
         if self.bodies.len() < 2 {
             for (body, (p, b)) in bodies {
-                (b.index.check_frame(p)).map_err(|source| PassError::Intersect { body, source })?;
+                if let Some(g) = &b.geometry {
+                    (g.index.check_frame(p))
+                        .map_err(|source| PassError::Intersect { body, source })?;
+                }
             }
             return Ok(Vec::new());
         }
         bodies
-            .map(|(body, (p, b))| {
-                b.index
-                    .bounding_box(p)
-                    .map_err(|source| PassError::Intersect { body, source })
+            .map(|(body, (p, b))| match &b.geometry {
+                Some(g) => (g.index.bounding_box(p))
+                    .map_err(|source| PassError::Intersect { body, source }),
+                None => Ok(None),
             })
             .collect()
     }
@@ -701,10 +725,10 @@ impl ContactPass {
             .iter()
             .zip(&self.bodies)
             .enumerate()
-            .map(|(body, (p, b))| match paired(body) {
-                true => (b.index.pose(p).map(Some))
+            .map(|(body, (p, b))| match (&b.geometry, paired(body)) {
+                (Some(g), true) => (g.index.pose(p).map(Some))
                     .map_err(|source| PassError::Intersect { body, source }),
-                false => Ok(None),
+                _ => Ok(None),
             })
             .collect()
     }
@@ -811,10 +835,10 @@ impl ContactPass {
             })
             .filter(|s| s.stiffness < 1.0 && !s.zone.vertices.is_empty())
             .collect();
-        if sides.is_empty() {
-            return Ok(None);
-        }
         let b = &self.bodies[body];
+        let Some(geometry) = b.geometry.as_ref().filter(|_| !sides.is_empty()) else {
+            return Ok(None);
+        };
         let frame = RegionFrame {
             positions: &positions[body],
             normals: &normals[body],
@@ -824,7 +848,7 @@ impl ContactPass {
             direction_field: None,
             free_border: None,
         };
-        deform_region(&b.region, &frame, &b.deform)
+        deform_region(&geometry.region, &frame, &b.deform)
             .map(Some)
             .map_err(|source| PassError::Deform { body, source })
     }

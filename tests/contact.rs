@@ -659,3 +659,26 @@ fn a_box_resting_on_another_is_not_coincident_but_its_duplicate_is() {
         duplicate.failed
     );
 }
+
+/// A body left out of contacts (`[[object]] contact = false`) gets nothing precomputed: a
+/// mesh the pass could not index (here a triangle naming a vertex it does not have) refuses
+/// the pass when it takes part, and is carried through as it came when it does not.
+#[test]
+fn a_body_left_out_of_contacts_is_not_precomputed() {
+    let l = load("capsule_pair", 31);
+    let rest = welded_positions(&l.rig, &l.pre, 0.0, None);
+    let mut broken = l.triangles[1].clone();
+    broken[0][0] = rest[1].len() as u32;
+    let bodies = [
+        (rest[0].as_slice(), l.triangles[0].as_slice()),
+        (rest[1].as_slice(), broken.as_slice()),
+    ];
+    let mut params = object_params(2, &[1.0], 0.0);
+    assert!(ContactPass::new(&bodies, params.clone(), vec![]).is_err());
+    params[1].contact = false;
+    let pass = ContactPass::new(&bodies, params, vec![]).expect("the broken body left out");
+    let input = l.frame(30);
+    let out = pass.run(&input).expect("runs");
+    assert!(out.contacts.is_empty() && out.failed.is_empty());
+    assert_eq!(out.positions, input);
+}
