@@ -190,14 +190,8 @@ fn a_rig_in_other_units_gives_the_same_result_scaled() {
         let plain = scenes::load_bytes(name, &bytes, 31);
         for scale in [2f64.powi(-64), 2f64.powi(64)] {
             let scaled = scenes::load_bytes(name, &under_scaled_root(&bytes, [scale; 3]), 31);
-            let passes = [&plain, &scaled].map(|l| (contact_pass(l), pass(l, false)));
-            for k in [10, 20, 30] {
-                let (a, resolved) = both_passes(&plain, &passes[0], k);
-                let (b, resolved_scaled) = both_passes(&scaled, &passes[1], k);
-                assert!(
-                    resolved > 0 || k == 10,
-                    "{name} frame {k}: a contact to compare"
-                );
+            for (k, [(a, resolved), (b, resolved_scaled)]) in compared_frames(name, &plain, &scaled)
+            {
                 assert_eq!(resolved, resolved_scaled, "{name} × {scale:e} frame {k}");
                 let expected: Vec<Vec<Point3<f64>>> = a
                     .iter()
@@ -224,15 +218,9 @@ fn a_mirrored_rig_gives_the_mirror_image() {
         let plain = scenes::load_bytes(name, &bytes, 31);
         let mirrored = scenes::load_bytes(name, &under_scaled_root(&bytes, [-1.0, 1.0, 1.0]), 31);
         assert!(mirrored.rig.warnings.iter().any(|w| w.contains("mirrors")));
-        let passes = [&plain, &mirrored].map(|l| (contact_pass(l), pass(l, false)));
         let mut worst = 0.0f64;
-        for k in [10, 20, 30] {
-            let (a, resolved) = both_passes(&plain, &passes[0], k);
-            let (b, resolved_mirrored) = both_passes(&mirrored, &passes[1], k);
-            assert!(
-                resolved > 0 || k == 10,
-                "{name} frame {k}: a contact to compare"
-            );
+        for (k, [(a, resolved), (b, resolved_mirrored)]) in compared_frames(name, &plain, &mirrored)
+        {
             assert_eq!(resolved > 0, resolved_mirrored > 0, "{name} frame {k}");
             for (p, q) in a.iter().flatten().zip(b.iter().flatten()) {
                 worst = worst.max((Point3::new(-p.x, p.y, p.z) - q).norm() / plain.h_rest);
@@ -249,6 +237,26 @@ fn a_mirrored_rig_gives_the_mirror_image() {
     }
 }
 
+/// A frame's positions per body after both passes, and the contacts and folds resolved.
+type Passed = (Vec<Vec<Point3<f64>>>, usize);
+
+/// Frames 10, 20 and 30 of `plain` and of `other` (the same rig transformed) through both
+/// passes ([`both_passes`]), with a contact or a fold in `plain` from frame 20 on.
+fn compared_frames(name: &str, plain: &Loaded, other: &Loaded) -> Vec<(usize, [Passed; 2])> {
+    let passes = [plain, other].map(|l| (contact_pass(l), pass(l, false)));
+    [10, 20, 30]
+        .into_iter()
+        .map(|k| {
+            let out = [(plain, &passes[0]), (other, &passes[1])].map(|(l, p)| both_passes(l, p, k));
+            assert!(
+                out[0].1 > 0 || k == 10,
+                "{name} frame {k}: a contact to compare"
+            );
+            (k, out)
+        })
+        .collect()
+}
+
 /// The contact pass between bodies with the defaults `pose` uses.
 fn contact_pass(l: &Loaded) -> ContactPass {
     let (params, overrides, _) = ContactConfig::default()
@@ -260,11 +268,7 @@ fn contact_pass(l: &Loaded) -> ContactPass {
 
 /// Frame `k` of `l` through the pass between bodies, then the self-contact pass, as `pose`
 /// runs them; with the number of contacts and folds resolved.
-fn both_passes(
-    l: &Loaded,
-    (between, own): &(ContactPass, SelfContactPass),
-    k: usize,
-) -> (Vec<Vec<Point3<f64>>>, usize) {
+fn both_passes(l: &Loaded, (between, own): &(ContactPass, SelfContactPass), k: usize) -> Passed {
     let t = l.times[k];
     let frame = contact_skin::frames::evaluate(&l.rig, &l.pre, Some(0), k, t);
     let input = frame.welded(&l.pre);

@@ -226,26 +226,32 @@ fn common_similarity_is_that_similarity() {
         .iter()
         .map(|p| p.coords.norm())
         .fold(0.0, f64::max);
-    for scale in [1.0, 0.01, 100.0] {
-        let root = Matrix4::new_scaling(scale);
-        let g = Translation3::new(0.3, -2.0, 5.0).to_homogeneous()
-            * root
-            * rotation_about(
-                Point3::new(1.0, 2.0, 3.0),
-                Vector3::new(1.0, 2.0, -0.5),
-                2.2,
-            );
-        let out = cor::skin(&body, &centers, &[g, g]);
+    // Both joints moved by `m` (its largest stretch `reach`): every vertex goes where `m`
+    // takes it, its normal by `m`'s cofactor.
+    let follows = |m: Matrix4<f64>, reach: f64| {
+        let out = cor::skin(&body, &centers, &[m, m]);
         let expected: Vec<Point3<f64>> = body
             .positions
             .iter()
-            .map(|p| g.transform_point(p))
+            .map(|p| m.transform_point(p))
             .collect();
-        let err = max_distance(&out.positions, &expected) / (scale * rest_size);
-        assert!(err < 1e-12, "× {scale}: motion error {err:e} of the size");
+        let err = max_distance(&out.positions, &expected) / (reach * rest_size);
+        assert!(err < 1e-12, "{m}: motion error {err:e} of the size");
+        let a = m.fixed_view::<3, 3>(0, 0).into_owned();
+        let cof = a.try_inverse().expect("invertible").transpose() * a.determinant();
         for (n, n0) in out.normals.iter().zip(&body.normals) {
-            assert!((n - g.transform_vector(n0).normalize()).norm() < 1e-12);
+            assert!((n - (cof * n0).normalize()).norm() < 1e-12);
         }
+    };
+    let rigid = Translation3::new(0.3, -2.0, 5.0).to_homogeneous()
+        * rotation_about(
+            Point3::new(1.0, 2.0, 3.0),
+            Vector3::new(1.0, 2.0, -0.5),
+            2.2,
+        );
+    for scale in [1.0, 0.01, 100.0] {
+        let root = Matrix4::new_scaling(scale);
+        follows(root * rigid, scale);
         let bent = bend(tube.len, 1.2);
         let plain = cor::skin(&body, &centers, &bent);
         let scaled = cor::skin(
@@ -257,27 +263,11 @@ fn common_similarity_is_that_similarity() {
         let err = max_distance(&scaled.positions, &expected) / (scale * rest_size);
         assert!(err < 1e-12, "× {scale}: bend error {err:e} of the size");
     }
-    // A common stretch that is not a similarity: the blended stretch is the joints' own, so
-    // every vertex goes where the matrix takes it, its normal by the matrix's cofactor.
-    let m = Translation3::new(0.3, -2.0, 5.0).to_homogeneous()
-        * rotation_about(
-            Point3::new(1.0, 2.0, 3.0),
-            Vector3::new(1.0, 2.0, -0.5),
-            2.2,
-        )
-        * Matrix4::new_nonuniform_scaling(&Vector3::new(2.0, 1.0, 0.5));
-    let out = cor::skin(&body, &centers, &[m, m]);
-    let expected: Vec<Point3<f64>> = body
-        .positions
-        .iter()
-        .map(|p| m.transform_point(p))
-        .collect();
-    assert!(max_distance(&out.positions, &expected) < 1e-12 * 2.0 * rest_size);
-    let a = m.fixed_view::<3, 3>(0, 0).into_owned();
-    let cof = a.try_inverse().expect("invertible").transpose() * a.determinant();
-    for (n, n0) in out.normals.iter().zip(&body.normals) {
-        assert!((n - (cof * n0).normalize()).norm() < 1e-12);
-    }
+    // A common stretch that is not a similarity: the blended stretch is the joints' own.
+    follows(
+        rigid * Matrix4::new_nonuniform_scaling(&Vector3::new(2.0, 1.0, 0.5)),
+        2.0,
+    );
 }
 
 #[test]

@@ -730,7 +730,6 @@ struct LeafPair<'t, A, B> {
     box_b: &'t B,
 }
 
-/// Set A's bit in [`FaceSets`].
 /// The budget of a bounded query over trees of `faces` faces in all ([`PAIRS_PER_FACE`]).
 fn pair_budget(faces: usize) -> usize {
     faces.saturating_mul(PAIRS_PER_FACE).max(MIN_PAIR_BUDGET)
@@ -744,6 +743,7 @@ fn entangled(pairs: &[(u32, u32)], budget: usize) -> Result<(), IntersectError> 
     Ok(())
 }
 
+/// Set A's bit in [`FaceSets`].
 const SET_A: u8 = 1;
 /// Set B's bit in [`FaceSets`].
 const SET_B: u8 = 2;

@@ -189,9 +189,8 @@ pub fn intersect_parts(
 struct Counters {
     candidates: AtomicUsize,
     adjacent: AtomicUsize,
-    coplanar: AtomicUsize,
     /// The coplanar face pairs (rare but for coincident surfaces: a lock per pair found).
-    coplanar_pairs: std::sync::Mutex<Vec<[u32; 2]>>,
+    coplanar: std::sync::Mutex<Vec<[u32; 2]>>,
     degenerate: AtomicUsize,
     ties: AtomicUsize,
     anomalous: AtomicUsize,
@@ -205,17 +204,18 @@ impl Counters {
     }
 }
 
-/// The number of distinct faces of each side among the coplanar pairs.
-fn distinct_faces(counters: &Counters) -> [usize; 2] {
-    let Ok(pairs) = counters.coplanar_pairs.lock() else {
-        return [0, 0];
+/// The coplanar pairs found (as often as found) and the distinct faces of each side in them.
+fn coplanar_counts(counters: &Counters) -> (usize, [usize; 2]) {
+    let Ok(pairs) = counters.coplanar.lock() else {
+        return (0, [0, 0]);
     };
-    [0, 1].map(|k| {
+    let distinct = [0, 1].map(|k| {
         let mut faces: Vec<u32> = pairs.iter().map(|p| p[k]).collect();
         faces.sort_unstable();
         faces.dedup();
         faces.len()
-    })
+    });
+    (pairs.len(), distinct)
 }
 
 /// The two hits of an intersecting face pair, `hits[0]` the start of the segment.
@@ -300,13 +300,14 @@ fn assemble(
     let links: Vec<[u32; 2]> = segments.iter().map(|s| s.hits).collect();
     let curves = chain(hits.len(), &links);
     let load = |c: &AtomicUsize| c.load(Ordering::Relaxed);
+    let (coplanar_pairs, coplanar_faces) = coplanar_counts(counters);
     Intersections {
         stats: IntersectionStats {
             candidate_pairs: load(&counters.candidates),
             intersecting_pairs: segments.len(),
             adjacent_pairs_skipped: load(&counters.adjacent),
-            coplanar_pairs: load(&counters.coplanar),
-            coplanar_faces: distinct_faces(counters),
+            coplanar_pairs,
+            coplanar_faces,
             degenerate_pairs: load(&counters.degenerate),
             symbolic_ties: load(&counters.ties),
             index_degenerate_faces: index_degenerate,
@@ -396,8 +397,7 @@ impl<'p> Pair<'p> {
         let signs = self.pts[s].map(|p| plane.side(p, s == 1));
         Counters::add(&counters.ties, signs.iter().filter(|x| x.tie).count());
         if signs.iter().all(|x| x.tie && x.sign != 0) {
-            Counters::add(&counters.coplanar, 1);
-            if let Ok(mut pairs) = counters.coplanar_pairs.lock() {
+            if let Ok(mut pairs) = counters.coplanar.lock() {
                 pairs.push(self.faces);
             }
         }

@@ -138,15 +138,16 @@ fn load_impl(file: &Path, bytes: &[u8], folder: Option<&Path>) -> Result<Rig, Ri
         extra_attributes,
         warnings,
     };
-    check_rest_pose(file, &rig)?;
-    super::orientation::face_outward(&mut rig);
+    let rest = check_rest_pose(file, &rig)?;
+    super::orientation::face_outward(&mut rig, &rest);
     Ok(rig)
 }
 
 /// Every node's world transform and every skinning matrix at rest is finite: each value is
 /// checked as read, but scales of 1e30 down a chain of twelve nodes, or inverse bind matrices
 /// near `f64::MAX`, overflow once composed (found by fuzzing: the rest pose came out NaN).
-fn check_rest_pose(file: &Path, rig: &Rig) -> Result<(), RigError> {
+/// The rest pose, checked.
+fn check_rest_pose(file: &Path, rig: &Rig) -> Result<super::Pose, RigError> {
     let pose = rig.pose_at(None, 0.0);
     let finite = |m: &Matrix4<f64>| m.iter().all(|x| x.is_finite());
     if let Some(n) = pose.world.iter().position(|m| !finite(m)) {
@@ -165,7 +166,7 @@ fn check_rest_pose(file: &Path, rig: &Rig) -> Result<(), RigError> {
             ));
         }
     }
-    Ok(())
+    Ok(pose)
 }
 
 /// A GLB whose header declares fewer bytes than the file holds (the spec's length is the

@@ -11,16 +11,16 @@
 //! The glTF rule that the determinant of the *node's* transform decides the winding does not
 //! apply to a skinned mesh, whose node transform is ignored: the skin's matrices decide here.
 
-use super::{Body, Rig};
-use nalgebra::{Matrix3, Matrix4};
+use super::{Body, Pose, Rig};
+use crate::skinning::lbs::blended_matrix;
+use nalgebra::Matrix4;
 
-/// Reverses the winding and normals of every body that its skin mirrors at rest, with a
-/// warning naming it; a warning too for a skin that mirrors only some of a body's vertices
-/// (left as the majority has it).
-pub(super) fn face_outward(rig: &mut Rig) {
-    let pose = rig.pose_at(None, 0.0);
+/// Reverses the winding and normals of every body that its skin mirrors at `rest` (the rig's
+/// rest pose), with a warning naming it; a warning too for a skin that mirrors only some of a
+/// body's vertices (left as the majority has it).
+pub(super) fn face_outward(rig: &mut Rig, rest: &Pose) {
     for body in &mut rig.bodies {
-        let mats = pose.skin_matrices(&rig.skins[body.skin]);
+        let mats = rest.skin_matrices(&rig.skins[body.skin]);
         let [mirrored, kept] = orientations(body, &mats);
         let mixed = if mirrored > 0 && kept > 0 {
             format!(" ({mirrored} of its {} vertices mirrored)", mirrored + kept)
@@ -57,14 +57,9 @@ pub(super) fn face_outward(rig: &mut Rig) {
 fn orientations(body: &Body, mats: &[Matrix4<f64>]) -> [usize; 2] {
     let mut counts = [0, 0];
     for v in 0..body.weights.len() {
-        let (joints, weights) = body.weights.row_slices(v);
-        let mut linear = Matrix3::zeros();
-        for (&j, &w) in joints.iter().zip(weights) {
-            if let Some(m) = mats.get(j as usize) {
-                linear += m.fixed_view::<3, 3>(0, 0) * w;
-            }
-        }
-        let d = linear.determinant();
+        let d = blended_matrix(&body.weights, v, mats)
+            .fixed_view::<3, 3>(0, 0)
+            .determinant();
         if d < 0.0 {
             counts[0] += 1;
         } else if d > 0.0 {

@@ -45,10 +45,10 @@
 //! precomputation evaluates the kernel ~1.4·10⁸ times and takes ~0.25 s on 2 cores, where the
 //! naive double sum would take ~30k × 88k subtriangles × pairs evaluations.
 
-use super::dqs::{joint_dqs, JointDq};
+use super::dqs::{blended_stretch, joint_dqs, JointDq};
 use super::{cofactor, lbs, unit_or_zero, Skinned};
 use crate::rig::{Body, SkinWeights};
-use nalgebra::{Matrix3, Matrix4, Point3, Quaternion, UnitQuaternion, Vector3};
+use nalgebra::{Matrix4, Point3, Quaternion, UnitQuaternion, Vector3};
 use rayon::prelude::*;
 use std::collections::HashMap;
 
@@ -639,19 +639,6 @@ fn blended_rotation(joints: &[u16], weights: &[f64], split: &[JointDq]) -> UnitQ
         }
     }
     UnitQuaternion::try_new(q, 1e-12).unwrap_or_else(UnitQuaternion::identity)
-}
-
-/// The blended stretch `S̄ = Σ_s w_s S_s` of one vertex, `None` when every joint is rigid.
-fn blended_stretch(joints: &[u16], weights: &[f64], split: &[JointDq]) -> Option<Matrix3<f64>> {
-    let mut stretch = Matrix3::zeros();
-    let mut stretched = false;
-    for (&j, &w) in joints.iter().zip(weights) {
-        if let Some(d) = split.get(j as usize) {
-            stretch += d.stretch * w;
-            stretched |= d.stretched;
-        }
-    }
-    stretched.then_some(stretch)
 }
 
 /// Skins one vertex with its center: `p' = (Σ w_s M_s) p* + R S̄ (p - p*)`, `n' = R cof(S̄) n` (`S̄`

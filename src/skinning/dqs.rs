@@ -65,6 +65,20 @@ pub fn joint_dqs(mats: &[Matrix4<f64>]) -> Vec<JointDq> {
         .collect()
 }
 
+/// The blended stretch `S̄ = Σ_j w_j S_j` of one vertex's influences, `None` when every joint
+/// is rigid (DQS's, and CoR's for joints that scale).
+pub fn blended_stretch(joints: &[u16], weights: &[f64], split: &[JointDq]) -> Option<Matrix3<f64>> {
+    let mut stretch = Matrix3::zeros();
+    let mut stretched = false;
+    for (&j, &w) in joints.iter().zip(weights) {
+        if let Some(d) = split.get(j as usize) {
+            stretch += d.stretch * w;
+            stretched |= d.stretched;
+        }
+    }
+    stretched.then_some(stretch)
+}
+
 /// Skins a whole body with dual quaternions.
 pub fn skin(body: &Body, mats: &[Matrix4<f64>]) -> Skinned {
     let dqs = joint_dqs(mats);
@@ -81,15 +95,11 @@ pub fn skin(body: &Body, mats: &[Matrix4<f64>]) -> Skinned {
             let q0 = dqs[pivot].real;
             let mut real = Quaternion::new(0.0, 0.0, 0.0, 0.0);
             let mut dual = real;
-            let mut stretch = Matrix3::zeros();
-            let mut stretched = false;
             for (&j, &w) in joints.iter().zip(weights) {
                 let d = &dqs[j as usize];
                 let sign = if d.real.dot(&q0) < 0.0 { -w } else { w };
                 real += d.real * sign;
                 dual += d.dual * sign;
-                stretch += d.stretch * w;
-                stretched |= d.stretched;
             }
             let len = real.norm();
             let (real, dual) = if len > 1e-12 {
@@ -101,10 +111,9 @@ pub fn skin(body: &Body, mats: &[Matrix4<f64>]) -> Skinned {
             let t = (dual * real.conjugate() * 2.0).imag();
             let p = &body.positions[v].coords;
             let n = &body.normals[v];
-            let (ps, ns) = if stretched {
-                (stretch * p, cofactor(&stretch) * n)
-            } else {
-                (*p, *n)
+            let (ps, ns) = match blended_stretch(joints, weights, &dqs) {
+                Some(stretch) => (stretch * p, cofactor(&stretch) * n),
+                None => (*p, *n),
             };
             let p2 = rot * ps + t;
             (nalgebra::Point3::from(p2), unit_or_zero(rot * ns))
