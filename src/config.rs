@@ -507,7 +507,8 @@ pub struct PairSpec {
     /// Keyframed mapping directions `[time, x, y, z]`.
     #[serde(default, deserialize_with = "exact::option_list")]
     pub direction_keys: Option<Vec<[f64; 4]>>,
-    /// `false`: the pair is not resolved ([`crate::pass::PairOverride::enabled`]).
+    /// `false`: the pair is not resolved; `true`: resolved even when the two bodies cross at
+    /// rest, which leaves a pair out by default ([`crate::pass::PairOverride::enabled`]).
     pub enabled: Option<bool>,
 }
 
@@ -1207,7 +1208,7 @@ impl ContactConfig {
                 tau: p.tau,
                 safeguard_angle: p.safeguard_angle,
                 direction: self.direction_track(p, &at)?,
-                enabled: p.enabled.unwrap_or(true),
+                enabled: p.enabled,
             });
         }
         Ok(out)

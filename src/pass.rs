@@ -96,9 +96,28 @@ pub struct PairOverride {
     pub safeguard_angle: Option<f64>,
     /// Mapping direction, outward for `bodies[0]` (constant or keyframed).
     pub direction: Option<DirectionTrack>,
-    /// Whether the pair is resolved (`[[pair]] enabled = false` leaves the two bodies as they
-    /// come where they meet).
-    pub enabled: bool,
+    /// Whether the pair is resolved: `Some(false)` (`[[pair]] enabled = false`) leaves the
+    /// two bodies as they come where they meet; `Some(true)` resolves the pair even when the
+    /// two surfaces cross at rest and the pass leaves such pairs out
+    /// ([`RestOverlaps::LeftOut`]); `None`, the default, follows the pass.
+    pub enabled: Option<bool>,
+}
+
+/// What [`ContactPass`] does with the pairs of bodies whose surfaces already cross at rest
+/// ([`ContactPass::crossing_at_rest`]; [`ContactPass::with_rest_overlaps`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum RestOverlaps {
+    /// Resolves them like any other (the library's default: a caller may build the pass on
+    /// any positions, such as a frame's, where every contact crosses).
+    #[default]
+    Resolved,
+    /// Leaves them out unless an override enables the pair: on a rig's true rest pose (what
+    /// `contact-skin pose` does), such an overlap is modeled on purpose, as a robot's rigid
+    /// pieces at their hinges or a head sunk into a torso, and resolving it in every frame
+    /// works against the model (until 2026-12-05 the CLI did: the Quaternius robot's 11
+    /// hinges, with zones of 1-9 vertices, faces turned over and its open pieces' volumes
+    /// changed).
+    LeftOut,
 }
 
 impl PairOverride {
@@ -110,7 +129,7 @@ impl PairOverride {
             tau: None,
             safeguard_angle: None,
             direction: None,
-            enabled: true,
+            enabled: None,
         }
     }
 }
@@ -267,6 +286,82 @@ impl BodyGeometry {
     }
 }
 
+/// Whether a contact pass with `overrides` resolves the pair `bodies` where its bodies meet
+/// (`crossing_at_rest`: their surfaces cross at rest and the pass leaves such pairs out,
+/// [`RestOverlaps::LeftOut`]): not when an override disables it (the configuration allows one
+/// per pair; any that does), else when one enables it or the pair is not such a pair.
+pub fn resolves_pair(
+    overrides: &[PairOverride],
+    bodies: [usize; 2],
+    crossing_at_rest: bool,
+) -> bool {
+    let [a, b] = bodies;
+    let set = (overrides.iter())
+        .filter(|o| o.bodies == [a, b] || o.bodies == [b, a])
+        .filter_map(|o| o.enabled);
+    let (mut on, mut off) = (false, false);
+    for e in set {
+        on |= e;
+        off |= !e;
+    }
+    !off && (on || !crossing_at_rest)
+}
+
+/// [`ContactPass::crossing_at_rest`] of the bodies `rest` with their `params`, without the rest
+/// of the pass (for `contact-skin info`).
+pub fn pairs_crossing_at_rest(
+    rest: &[RestBody],
+    params: &[ObjectParams],
+) -> Result<Vec<[usize; 2]>, PassError> {
+    let indices = (rest.iter().zip(params).enumerate())
+        .map(|(body, (&(pos, tris), p))| {
+            (p.contact)
+                .then(|| MeshIndex::new(pos, tris))
+                .transpose()
+                .map_err(|source| PassError::Intersect { body, source })
+        })
+        .collect::<Result<Vec<_>, PassError>>()?;
+    crossing_at_rest(
+        rest,
+        &indices.iter().map(Option::as_ref).collect::<Vec<_>>(),
+    )
+}
+
+/// The pairs of bodies with an index (`indices`, one per body) whose boxes overlap at their
+/// `rest` positions and whose surfaces cross there ([`ContactPass::crossing_at_rest`]). A pair
+/// whose test fails (surfaces lying on each other, entangled ones) is not counted: the frames
+/// refuse it as they would.
+fn crossing_at_rest(
+    rest: &[RestBody],
+    indices: &[Option<&MeshIndex>],
+) -> Result<Vec<[usize; 2]>, PassError> {
+    let posed: Vec<Option<(PosedMesh, Aabb)>> = (indices.iter().zip(rest).enumerate())
+        .map(|(body, (index, &(pos, _)))| {
+            let Some(index) = index else {
+                return Ok(None);
+            };
+            let intersect = |source| PassError::Intersect { body, source };
+            let aabb = index.bounding_box(pos).map_err(intersect)?;
+            let mesh = index.pose(pos).map_err(intersect)?;
+            Ok(aabb.map(|aabb| (mesh, aabb)))
+        })
+        .collect::<Result<_, PassError>>()?;
+    let overlapping: Vec<[usize; 2]> = (0..posed.len())
+        .flat_map(|a| (a + 1..posed.len()).map(move |b| [a, b]))
+        .filter(|&[a, b]| match (&posed[a], &posed[b]) {
+            (Some((_, x)), Some((_, y))) => x.overlaps(y),
+            _ => false,
+        })
+        .collect();
+    Ok(overlapping
+        .into_par_iter()
+        .filter(|&[a, b]| match (&posed[a], &posed[b]) {
+            (Some((x, _)), Some((y, _))) => crate::contact::surfaces_cross([x, y]).unwrap_or(false),
+            _ => false,
+        })
+        .collect())
+}
+
 /// A body posed smaller than this fraction of its rest bounding-box diagonal (a bone or the
 /// whole rig scaled to 0, a common way to hide a part) takes no part in contacts that frame:
 /// there is nothing to
@@ -282,6 +377,9 @@ pub struct ContactPass {
     params: Vec<ObjectParams>,
     overrides: Vec<PairOverride>,
     passes: usize,
+    /// [`ContactPass::crossing_at_rest`].
+    crossing_at_rest: Vec<[usize; 2]>,
+    rest_overlaps: RestOverlaps,
 }
 
 /// Time per stage in seconds, summed over pairs and regions (the paper's Table 1 columns).
@@ -501,12 +599,48 @@ impl ContactPass {
                 })
             })
             .collect::<Result<Vec<_>, PassError>>()?;
+        let indices: Vec<Option<&MeshIndex>> = (bodies.iter())
+            .map(|b| b.geometry.as_ref().map(|g| &g.index))
+            .collect();
+        let crossing_at_rest = crossing_at_rest(rest, &indices)?;
         Ok(Self {
             bodies,
             params,
             overrides,
             passes: DEFAULT_PASSES,
+            crossing_at_rest,
+            rest_overlaps: RestOverlaps::default(),
         })
+    }
+
+    /// The pairs of bodies in contacts whose surfaces already cross at the positions the pass
+    /// was built on (`[a, b]`, `a < b`; beyond a touch, by the test that opens a contact in a
+    /// frame, [`crate::contact::surfaces_cross`]). What the pass does with them:
+    /// [`ContactPass::with_rest_overlaps`].
+    pub fn crossing_at_rest(&self) -> &[[usize; 2]] {
+        &self.crossing_at_rest
+    }
+
+    /// Sets what the pass does with the pairs of [`ContactPass::crossing_at_rest`] (default
+    /// [`RestOverlaps::Resolved`]).
+    pub fn with_rest_overlaps(mut self, rest_overlaps: RestOverlaps) -> Self {
+        self.rest_overlaps = rest_overlaps;
+        self
+    }
+
+    /// The pairs of [`ContactPass::crossing_at_rest`] that the pass leaves out: none with
+    /// [`RestOverlaps::Resolved`], else those no override enables.
+    pub fn left_out_at_rest(&self) -> Vec<[usize; 2]> {
+        (self.crossing_at_rest.iter().copied())
+            .filter(|&[a, b]| !self.resolves(a, b))
+            .collect()
+    }
+
+    /// Whether the pass resolves pair `(a, b)` where it meets ([`resolves_pair`]).
+    fn resolves(&self, a: usize, b: usize) -> bool {
+        let crossing = self.rest_overlaps == RestOverlaps::LeftOut
+            && self.crossing_at_rest.contains(&[a.min(b), a.max(b)]);
+        resolves_pair(&self.overrides, [a, b], crossing)
     }
 
     /// Number of bodies.
@@ -733,24 +867,19 @@ impl ContactPass {
             .collect()
     }
 
-    /// The body pairs to resolve: both in size and taking part in contacts, the pair not
-    /// disabled, their boxes overlapping.
+    /// The body pairs to resolve: both in size and taking part in contacts, the pair resolved
+    /// ([`ContactPass::resolves`]), their boxes overlapping.
     fn candidate_pairs(&self, boxes: &[Option<Aabb>]) -> Vec<(usize, usize)> {
         let sized: Vec<bool> = (0..boxes.len())
             .map(|b| self.params[b].contact && self.in_size(b, boxes[b].as_ref()))
             .collect();
-        // Disabled by any override of the pair (the configuration allows one per pair).
-        let enabled = |a: usize, b: usize| {
-            let bodies = |o: &PairOverride| o.bodies == [a, b] || o.bodies == [b, a];
-            !self.overrides.iter().any(|o| bodies(o) && !o.enabled)
-        };
         let overlap = |a: usize, b: usize| match (&boxes[a], &boxes[b]) {
             (Some(x), Some(y)) => x.overlaps(y),
             _ => false,
         };
         (0..boxes.len())
             .flat_map(|a| (a + 1..boxes.len()).map(move |b| (a, b)))
-            .filter(|&(a, b)| sized[a] && sized[b] && enabled(a, b))
+            .filter(|&(a, b)| sized[a] && sized[b] && self.resolves(a, b))
             .filter(|&(a, b)| overlap(a, b))
             .collect()
     }

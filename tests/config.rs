@@ -168,7 +168,10 @@ fn a_full_example_parses_and_resolves() {
     assert_eq!(overrides[0].bodies, [0, 2]);
     assert_eq!(overrides[0].tau, Some(0.6));
     assert_eq!(overrides[0].safeguard_angle, Some(70.0));
-    assert_eq!([overrides[0].enabled, overrides[1].enabled], [true, false]);
+    assert_eq!(
+        [overrides[0].enabled, overrides[1].enabled],
+        [None, Some(false)]
+    );
     let pre = contact_skin::frames::Precomputed::new(&rig, contact_skin::skinning::Method::Lbs);
     let rest = contact_skin::frames::welded_positions(&rig, &pre, None, 0.0);
     let bodies = contact_skin::pass::rest_bodies(&rest, &pre.welded);

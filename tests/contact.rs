@@ -583,7 +583,7 @@ fn bodies_and_pairs_left_out_of_the_contact_pass() {
     assert!(!met(&out, 1) && met(&out, 2) && met(&out, 3));
     assert_eq!(out.positions[1], input[1], "the thumb as it came");
     let disabled = PairOverride {
-        enabled: false,
+        enabled: Some(false),
         ..PairOverride::new([2, 0])
     };
     let out = l
@@ -592,6 +592,55 @@ fn bodies_and_pairs_left_out_of_the_contact_pass() {
         .expect("runs");
     assert!(met(&out, 1) && !met(&out, 2) && met(&out, 3));
     assert_eq!(out.positions[2], input[2], "the index finger as it came");
+}
+
+/// A pair whose surfaces already cross at rest is a modeled overlap (a robot's pieces at their
+/// hinges), left out by a pass so set (`RestOverlaps::LeftOut`, `pose`'s) unless an override
+/// enables it: the capsule pair built on its deepest frame as its rest pose (the capsules
+/// pressed into each other) leaves that frame as it came, and resolves it, no vertex deeper
+/// than the chord tolerance, once the pair is enabled or with the library's default
+/// (`RestOverlaps::Resolved`); built on its own rest pose (apart) nothing crosses at rest.
+#[test]
+fn a_pair_crossing_at_rest_is_left_out_unless_enabled() {
+    use contact_skin::pass::{PairOverride, RestBody, RestOverlaps};
+    let l = load("capsule_pair", 31);
+    let input = l.frame(30);
+    let apart = l.pass(object_params(2, &[1.0], 0.0), vec![]);
+    assert!(apart.crossing_at_rest().is_empty());
+    let pressed: Vec<RestBody> = (input.iter().zip(&l.triangles))
+        .map(|(p, t)| (p.as_slice(), t.as_slice()))
+        .collect();
+    let build = |enabled: Option<bool>, rest_overlaps: RestOverlaps| {
+        let o = PairOverride {
+            enabled,
+            ..PairOverride::new([1, 0])
+        };
+        (ContactPass::new(&pressed, object_params(2, &[1.0], 0.0), vec![o]).expect("pass"))
+            .with_rest_overlaps(rest_overlaps)
+    };
+    let (before, deep_before, _) = deep_penetration(&l, &input);
+    assert!(deep_before > 50, "the frame interpenetrates ({before})");
+    for enabled in [None, Some(false)] {
+        let pass = build(enabled, RestOverlaps::LeftOut);
+        assert_eq!(pass.crossing_at_rest(), &[[0, 1]]);
+        assert_eq!(pass.left_out_at_rest(), vec![[0, 1]], "{enabled:?}");
+        let out = pass.run(&input).expect("runs");
+        assert!(out.contacts.is_empty() && out.failed.is_empty());
+        assert_eq!(out.positions, input, "{enabled:?}: as it came");
+    }
+    for (enabled, rest_overlaps) in [
+        (Some(true), RestOverlaps::LeftOut),
+        (None, RestOverlaps::Resolved),
+    ] {
+        let pass = build(enabled, rest_overlaps);
+        assert_eq!(pass.crossing_at_rest(), &[[0, 1]]);
+        assert!(pass.left_out_at_rest().is_empty());
+        let out = pass.run(&input).expect("runs");
+        assert_eq!(out.contacts.len(), 1);
+        let (after, deep_after, depth) = deep_penetration(&l, &out.positions);
+        let deep = format!("{before} → {after} flagged, {depth:.3} h deep");
+        assert_eq!(deep_after, 0, "{deep}");
+    }
 }
 
 /// A body and its duplicate (a mesh instanced twice, or layered on itself) are not a contact:

@@ -1474,3 +1474,72 @@ fn with_inverse_bind_entry(glb: &[u8], skin: usize, entry: usize, value: f32) ->
     out[at..at + 4].copy_from_slice(&value.to_le_bytes());
     out
 }
+
+/// The Quaternius robot's rigid pieces overlap at their hinges as modeled: 11 pairs of its
+/// bodies cross at rest. `info` lists them and `pose` leaves them out, so that in the idle
+/// animation the left hand, which meets nothing but its wrist, comes out as skinned to the
+/// byte; a configuration enabling the wrist (`[[pair]] enabled = true`) resolves it, and the
+/// hand moves, keeping its volume. `--metrics` measures the volume of the closed bodies only:
+/// the shoulder sinking into the torso moves two open pieces, with no volume to keep.
+#[test]
+fn the_robots_modeled_overlaps_are_left_out() {
+    let Some(robot) = present_sample("QuaterniusRobot/robot.glb") else {
+        return;
+    };
+    let info: Value =
+        serde_json::from_slice(&cli(&["info", s(&robot), "--json"]).stdout).expect("info JSON");
+    let crossing: Vec<String> = (info["crossing_at_rest"].as_array().expect("a list").iter())
+        .map(|p| format!("{} / {}", p["names"][0], p["names"][1]).replace('"', ""))
+        .collect();
+    assert_eq!(crossing.len(), 11, "{crossing:?}");
+    assert!(crossing.contains(&"Arm.L / Hand.L".to_string()));
+    let bodies = info["bodies"].as_array().expect("bodies");
+    let hand = bodies
+        .iter()
+        .position(|b| b["name"] == "Hand.L")
+        .expect("Hand.L");
+    let count = |b: &Value| b["vertices"].as_u64().expect("count") as usize;
+    let start: usize = bodies[..hand].iter().map(count).sum();
+    let hands = start..start + count(&bodies[hand]);
+    let config = tmp("robot-config");
+    std::fs::create_dir_all(&config).expect("folder");
+    let enable = config.join("wrist.toml");
+    std::fs::write(
+        &enable,
+        "[[pair]]\nobjects = [\"Arm.L\", \"Hand.L\"]\nenabled = true\n",
+    )
+    .expect("config");
+    let run = |name: &str, extra: &[&str]| {
+        let out = tmp(name);
+        let mut args = vec!["--animation", "Robot_Idle", "--json"];
+        args.extend_from_slice(extra);
+        let summary: Value =
+            serde_json::from_slice(&pose_frames(&robot, &out, "3", &args).stdout).expect("JSON");
+        let obj = std::fs::read_to_string(out.join("frame_0001.obj")).expect("frame");
+        let _ = std::fs::remove_dir_all(&out);
+        (summary, obj_vertices(&obj)[hands.clone()].to_vec())
+    };
+    let (_, skinned) = run("robot-skinned", &["--no-contact"]);
+    let (summary, default) = run("robot-default", &["--metrics"]);
+    assert_eq!(
+        summary["pairs_left_out_at_rest"].as_array().map(Vec::len),
+        Some(11)
+    );
+    assert_eq!(default, skinned, "the hand as skinned");
+    // Its shoulder sinks into its torso (both open: no volume to keep or measure).
+    assert!(summary["contact_frames"].as_u64() > Some(0));
+    let volume = summary["metrics"]["volume_error"]["value"].as_f64();
+    assert!(volume < Some(1e-12), "closed bodies only: {volume:?}");
+    let (summary, enabled) = run("robot-wrist", &["--config", s(&enable), "--metrics"]);
+    assert_eq!(
+        summary["pairs_left_out_at_rest"].as_array().map(Vec::len),
+        Some(10)
+    );
+    assert_ne!(enabled, skinned, "the wrist resolved moves the hand");
+    // The arm and the hand are closed: their volumes kept.
+    let volume = summary["metrics"]["volume_error"]["value"]
+        .as_f64()
+        .expect("measured");
+    assert!(volume > 0.0 && volume < 1e-9, "{volume}");
+    let _ = std::fs::remove_dir_all(&config);
+}

@@ -8,7 +8,7 @@ use contact_skin::config::{ContactConfig, SelfContactSettings};
 use contact_skin::frames::{self, Frame, Precomputed};
 use contact_skin::pass::{
     rest_bodies, BodyDiagnostics as PassBodyDiagnostics, ContactPass, ContactSummary, PassOutput,
-    StageTimings,
+    RestOverlaps, StageTimings,
 };
 pub use contact_skin::report::timings::{median, median_folds, median_stages, FoldMs};
 use contact_skin::rig::Rig;
@@ -79,7 +79,8 @@ impl ContactRun {
                     rig_path.display()
                 )
             })?
-            .with_passes(passes);
+            .with_passes(passes)
+            .with_rest_overlaps(RestOverlaps::LeftOut);
         let wanted = self_contact.unwrap_or_else(|| cfg.self_contact_enabled());
         let (self_contact, self_contact_skipped) = if wanted {
             match SelfRun::new(rig, pre, &cfg, &rest) {

@@ -329,10 +329,11 @@ impl<'a> Baseline<'a> {
             timed.iter().map(|(f, _)| f.input.welded(pre)).collect();
         let before: Vec<PenetrationRow> = inputs.par_iter().map(|p| measure(p, &tris, h)).collect();
         let deepest = deepest_frame(&before);
+        let closed = quality::closed_bodies(pre);
         let worst_volume_error = timed
             .iter()
             .zip(&inputs)
-            .map(|((f, _), input)| quality::volume_error(&tris, input, &f.positions))
+            .map(|((f, _), input)| quality::volume_error(&tris, &closed, input, &f.positions))
             .fold(0.0, f64::max);
         Self {
             tris,

@@ -4,7 +4,9 @@ use super::CliResult;
 use contact_skin::config::{self, ContactConfig};
 use contact_skin::contact::zones::DEFAULT_SAFEGUARD_ANGLE;
 use contact_skin::mesh::{TopologyReport, WeldedMesh};
-use contact_skin::pass::DEFAULT_EXTENT_FACTOR;
+use contact_skin::pass::{
+    pairs_crossing_at_rest, resolves_pair, rest_bodies, DEFAULT_EXTENT_FACTOR,
+};
 use contact_skin::rig::{self, Rig};
 use contact_skin::selfcontact::{
     derive_pairs_reporting, extend_distinct, separated_from_skeleton, separated_regions,
@@ -60,8 +62,19 @@ struct PairInfo {
     safeguard_angle: f64,
     /// `automatic`, `constant [x, y, z]` or `N keys from t0 to t1`.
     direction: String,
-    /// Resolved (`[[pair]] enabled = false`: not).
-    enabled: bool,
+    /// `[[pair]] enabled` as configured (`false`: not resolved; `true`: resolved even when
+    /// the bodies cross at rest; `null`: the default, resolved unless they do).
+    enabled: Option<bool>,
+}
+
+/// A pair of bodies whose surfaces cross at rest
+/// ([`contact_skin::pass::ContactPass::crossing_at_rest`]).
+#[derive(Serialize)]
+struct RestCrossingInfo {
+    bodies: [usize; 2],
+    names: [String; 2],
+    /// Resolved anyway (`[[pair]] enabled = true`); by default such a pair is left out.
+    resolved: bool,
 }
 
 /// The contact configuration of the rig, resolved.
@@ -192,6 +205,8 @@ struct RigInfo {
     animations: Vec<AnimationInfo>,
     warnings: Vec<String>,
     contact: Option<ContactInfo>,
+    /// The pairs of bodies crossing at rest (modeled overlaps).
+    crossing_at_rest: Vec<RestCrossingInfo>,
     self_contact: Option<SelfContactInfo>,
 }
 
@@ -242,6 +257,7 @@ fn describe(rig: &Rig, welded: &[WeldedMesh]) -> RigInfo {
         animations,
         warnings: rig.warnings.clone(),
         contact: None,
+        crossing_at_rest: Vec::new(),
         self_contact: None,
     }
 }
@@ -606,7 +622,7 @@ fn print_contact(c: &ContactInfo) {
         );
     }
     for p in &c.pairs {
-        if !p.enabled {
+        if p.enabled == Some(false) {
             println!(
                 "    pair '{}' / '{}': not resolved (enabled = false)",
                 p.names[0], p.names[1]
@@ -631,6 +647,7 @@ pub fn run(a: &Args) -> CliResult {
         .collect();
     let mut info = describe(&rig, &welded);
     info.contact = describe_contact(&a.rig, a.config.as_deref(), &rig, &welded)?;
+    info.crossing_at_rest = describe_crossing_at_rest(&a.rig, a.config.as_deref(), &rig)?;
     info.self_contact = Some(describe_self_contact(
         &a.rig,
         a.config.as_deref(),
@@ -681,10 +698,59 @@ pub fn run(a: &Args) -> CliResult {
         Some(c) => print_contact(c),
         None => println!("  no contact configuration (the contact pass uses its defaults)"),
     }
+    print_crossing_at_rest(&info.crossing_at_rest);
     if let Some(s) = &info.self_contact {
         print_self_contact(s);
     }
     Ok(())
+}
+
+/// The pairs of bodies crossing at rest, as `pose`'s contact pass finds them (rest pose skinned
+/// with LBS, the configuration's objects left out of contacts excluded).
+fn describe_crossing_at_rest(
+    path: &Path,
+    explicit: Option<&Path>,
+    rig: &Rig,
+) -> Result<Vec<RestCrossingInfo>, Box<dyn std::error::Error + Send + Sync>> {
+    if rig.bodies.len() < 2 {
+        return Ok(Vec::new());
+    }
+    let cfg = ContactConfig::for_rig(path, explicit)?.unwrap_or_default();
+    let pre = contact_skin::frames::Precomputed::new(rig, contact_skin::skinning::Method::Lbs);
+    let (params, overrides, _) = cfg.resolve(rig, &pre.welded)?;
+    let rest = contact_skin::frames::welded_positions(rig, &pre, None, 0.0);
+    let crossing = pairs_crossing_at_rest(&rest_bodies(&rest, &pre.welded), &params)?;
+    Ok(crossing
+        .into_iter()
+        .map(|bodies| RestCrossingInfo {
+            bodies,
+            names: bodies.map(|b| rig.bodies[b].name.clone()),
+            resolved: resolves_pair(&overrides, bodies, true),
+        })
+        .collect())
+}
+
+fn print_crossing_at_rest(pairs: &[RestCrossingInfo]) {
+    if pairs.is_empty() {
+        return;
+    }
+    let left_out = pairs.iter().filter(|p| !p.resolved).count();
+    println!(
+        "  {} pair(s) of bodies cross at rest (modeled overlaps), {left_out} left out of contacts ([[pair]] enabled = true resolves one):",
+        pairs.len()
+    );
+    for p in pairs {
+        println!(
+            "    '{}' / '{}'{}",
+            p.names[0],
+            p.names[1],
+            if p.resolved {
+                ": resolved (enabled = true)"
+            } else {
+                ""
+            }
+        );
+    }
 }
 
 /// A length in scene units: six decimals, or six significant digits in scientific notation

@@ -98,7 +98,7 @@ pub struct Args {
     #[arg(long)]
     json: bool,
     /// Also measure every frame against its skinned input (MEASURING.md): penetrating
-    /// vertices before and after, largest depth, volume error, inverted and turned faces,
+    /// vertices before and after, largest depth, volume error (closed bodies), inverted and turned faces,
     /// non-finite values, and the run's temporal second-difference ratio (the output's largest
     /// second difference over the input's: where the output pops it grows with the square of
     /// `--frames`, where a vertex enters a contact zone (a kink) in proportion to it, so
@@ -137,6 +137,9 @@ struct Summary {
     contacts_failed: usize,
     /// The first of them: `frame N: error`.
     first_contact_failure: Option<String>,
+    /// Pairs of bodies whose surfaces cross at rest (modeled overlaps, as a robot's pieces at
+    /// their hinges), left out of the contact pass (`[[pair]] enabled = true` resolves one).
+    pairs_left_out_at_rest: Vec<[String; 2]>,
     vertices: usize,
     files: Vec<String>,
     /// Number of `frame_NNNN.diag.json` written.
@@ -443,6 +446,11 @@ fn summarize(
         first_contact_failure: first_failure(stats, |s| {
             s.contacts_failed.first().map(|f| f.error.clone())
         }),
+        pairs_left_out_at_rest: job.contact.map_or(Vec::new(), |c| {
+            let name = |b: usize| rig.bodies[b].name.clone();
+            let left_out = c.pass.left_out_at_rest();
+            left_out.into_iter().map(|p| p.map(name)).collect()
+        }),
         vertices: rig.vertex_count(),
         files: files.iter().map(|p| p.display().to_string()).collect(),
         diagnostics: stats.iter().filter(|s| s.diagnostics).count(),
@@ -644,6 +652,16 @@ fn print_contact(s: &Summary) {
             t.wall
         );
     }
+    if !s.pairs_left_out_at_rest.is_empty() {
+        let pairs: Vec<String> = (s.pairs_left_out_at_rest.iter())
+            .map(|[a, b]| format!("'{a}' / '{b}'"))
+            .collect();
+        println!(
+            "contact: {} pair(s) of bodies cross at rest (modeled overlaps) and are left out: {} ([[pair]] enabled = true resolves one)",
+            pairs.len(),
+            pairs.join(", ")
+        );
+    }
 }
 
 /// The self-contact pass's lines: frames with a fold, median step times, Table 1's columns,
@@ -733,7 +751,7 @@ fn print_metrics(m: &RunMetrics) {
         )
     });
     println!(
-        "metrics (worst frame; h = {:.4}): penetrating vertices {} (frame {}) in the input, {} (frame {}) in the output, deepest {:.2} h (frame {}); volume error {:.1e} (frame {}); inverted faces {} (frame {}), of which turned by the deformer {} (frame {}); non-finite values {}; temporal second-difference ratio {temporal}",
+        "metrics (worst frame; h = {:.4}): penetrating vertices {} (frame {}) in the input, {} (frame {}) in the output, deepest {:.2} h (frame {}); volume error of the closed bodies {:.1e} (frame {}); inverted faces {} (frame {}), of which turned by the deformer {} (frame {}); non-finite values {}; temporal second-difference ratio {temporal}",
         m.h,
         m.penetrating_before.value,
         m.penetrating_before.frame,

@@ -187,6 +187,19 @@ pub fn resolve_pair(
     resolve(a, b, params, Surfaces::Separate).map(PairOutcome::into_contact)
 }
 
+/// Whether two separate surfaces cross each other along curves longer than a touch: the test
+/// that opens a contact in a frame ([`resolve_pair_lazily`]), which
+/// [`crate::pass::ContactPass::new`] runs once on the bodies' rest pose (a pair crossing at
+/// rest is a modeled overlap, left out by default). Surfaces lying on each other are
+/// [`ContactError::Coincident`], as in a frame's first pass.
+pub fn surfaces_cross(meshes: [&PosedMesh; 2]) -> Result<bool, ContactError> {
+    let params = PairParams {
+        refuse_coincident: true,
+        ..PairParams::default()
+    };
+    Ok(contact_curves(meshes, Surfaces::Separate, &params)?.is_some())
+}
+
 /// [`resolve_pair`] for the two truncated working regions of one mesh (2021 Sec. 6: Sections
 /// 4.2 to 4.4 "carried out on these truncated working regions without any modification"):
 /// both sides are parts of one mesh posed with the same positions (see
