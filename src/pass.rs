@@ -15,6 +15,7 @@ use crate::deform::{
 };
 use crate::intersect::{Aabb, IntersectError, MeshIndex, PosedMesh};
 use crate::mesh::operators::{mean_edge_length, vertex_normals, NormalWeighting};
+use crate::mesh::RestVolume;
 use crate::solve::SolveError;
 use nalgebra::{Point3, Vector3};
 use rayon::prelude::*;
@@ -266,6 +267,8 @@ struct PassBody {
     deform: DeformParams,
     /// The rest bounding-box diagonal ([`COLLAPSED`]).
     rest_diagonal: f64,
+    /// Its rest signed volume when closed ([`PassOutput::inside_out`]).
+    rest_volume: Option<RestVolume>,
 }
 
 /// The intersection index and the working region of a body in contacts.
@@ -482,6 +485,13 @@ pub struct PassOutput {
     /// contacts of a body whose deformation failed still count in [`PassOutput::contacts`]
     /// (their other sides were deformed).
     pub failed: Vec<FailedContact>,
+    /// Closed bodies that the frame turned inside out (their signed volume of the other sign
+    /// than at rest: a joint scaled by a negative factor in the animation), left out of the
+    /// contacts and as they came, each once. The passes take a body's winding for outward
+    /// (the rest pose's mirror is undone at load); on one turned inside out they resolved the
+    /// wrong way (the capsule pair with one capsule mirrored from mid-animation: 634 faces
+    /// turned over by the pass in a frame, found 2026-12-05).
+    pub inside_out: Vec<usize>,
 }
 
 /// A contact or a deformation that failed in a frame ([`PassOutput::failed`]).
@@ -596,6 +606,7 @@ impl ContactPass {
                     triangles: tris.to_vec(),
                     deform,
                     rest_diagonal: crate::mesh::bbox_diagonal(pos),
+                    rest_volume: p.contact.then(|| RestVolume::of(pos, tris)).flatten(),
                 })
             })
             .collect::<Result<Vec<_>, PassError>>()?;
@@ -728,6 +739,11 @@ impl ContactPass {
                     out.failed.push(f);
                 }
             }
+            for b in next.inside_out {
+                if !out.inside_out.contains(&b) {
+                    out.inside_out.push(b);
+                }
+            }
             if next.contacts.is_empty() {
                 break;
             }
@@ -750,6 +766,8 @@ impl ContactPass {
         let boxes = self.boxes(positions)?;
         let mut pairs = self.candidate_pairs(&boxes);
         pairs.retain(|&(a, b)| pass.tries(a, b));
+        let inside_out = self.inside_out(positions, &pairs);
+        pairs.retain(|(a, b)| !(inside_out.contains(a) || inside_out.contains(b)));
         let posed = self.posed(positions, &pairs)?;
         let mut timings = StageTimings {
             setup: wall.elapsed().as_secs_f64(),
@@ -780,6 +798,7 @@ impl ContactPass {
             later_contacts: 0,
             pairs_without_direction: found.without_direction,
             failed: found.failed,
+            inside_out,
         };
         for (body, r) in results.into_iter().enumerate() {
             let deformed = r.unwrap_or_else(|e| {
@@ -799,6 +818,19 @@ impl ContactPass {
             return false;
         };
         posed.is_some_and(|x| (x.max - x.min).norm() >= COLLAPSED * rest)
+    }
+
+    /// The closed bodies of `pairs` that `positions` turn inside out
+    /// ([`PassOutput::inside_out`]), ascending.
+    fn inside_out(&self, positions: &[Vec<Point3<f64>>], pairs: &[(usize, usize)]) -> Vec<usize> {
+        let mut paired: Vec<usize> = pairs.iter().flat_map(|&(a, b)| [a, b]).collect();
+        paired.sort_unstable();
+        paired.dedup();
+        paired.retain(|&b| {
+            let body = &self.bodies[b];
+            (body.rest_volume).is_some_and(|v| v.inside_out(&positions[b], &body.triangles))
+        });
+        paired
     }
 
     /// One position set per body, each with the body's vertex count.

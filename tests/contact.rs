@@ -643,6 +643,33 @@ fn a_pair_crossing_at_rest_is_left_out_unless_enabled() {
     }
 }
 
+/// A closed body turned inside out by its pose (a joint scaled by -1 in an animation) is left
+/// out of the contacts that frame and reported: the capsule pair at its deepest frame with the
+/// upper capsule reflected through its centroid (the same surface, its winding inward) keeps
+/// its positions, where the same frame as skinned is a contact (before 2026-12-05 the pass
+/// resolved it the wrong way: 634 faces turned over in a frame of such an animation).
+#[test]
+fn a_body_turned_inside_out_is_left_out() {
+    let l = load("capsule_pair", 31);
+    let pass = l.pass(object_params(2, &[1.0], 0.0), vec![]);
+    let input = l.frame(30);
+    let out = pass.run(&input).expect("runs");
+    assert_eq!(out.contacts.len(), 1);
+    assert!(out.inside_out.is_empty());
+    let c = input[1]
+        .iter()
+        .fold(nalgebra::Vector3::zeros(), |s, p| s + p.coords)
+        / input[1].len() as f64;
+    let mut inverted = input.clone();
+    for p in &mut inverted[1] {
+        *p = Point3::from(2.0 * c - p.coords);
+    }
+    let out = pass.run(&inverted).expect("runs");
+    assert_eq!(out.inside_out, vec![1]);
+    assert!(out.contacts.is_empty() && out.failed.is_empty());
+    assert_eq!(out.positions, inverted, "as they came");
+}
+
 /// A body and its duplicate (a mesh instanced twice, or layered on itself) are not a contact:
 /// every face lies on its twin, and the pair fails as coincident, both bodies left as they came
 /// (resolved as a contact, the two fingers and their copy took 0.6 s per frame and turned 8962

@@ -2073,3 +2073,31 @@ fn sigma_takes_the_zones_signs_where_the_shared_region_has_no_face() {
     }
     assert!(zone_vertices > 0, "no zone vertex in the shared region");
 }
+
+/// The points of `p` reflected through their centroid: the same surface for a centrally
+/// symmetric one, its winding turned inward (a reflection reverses orientation in 3D), as a
+/// joint scaled by -1 in an animation poses it.
+fn reflected(p: &[Point3<f64>]) -> Vec<Point3<f64>> {
+    let c = p.iter().fold(Vector3::zeros(), |s, q| s + q.coords) / p.len() as f64;
+    p.iter().map(|q| Point3::from(2.0 * c - q.coords)).collect()
+}
+
+/// A pose that turns a closed body inside out leaves its folds as they are and reports the
+/// body: the bending capsule at its deepest frame folds; reflected through its centroid (the
+/// same surface, winding inward) its detection still finds the fold, which the pass no longer
+/// resolves (it did, the wrong way, before 2026-12-05).
+#[test]
+fn a_body_turned_inside_out_is_left_as_it_came() {
+    let l = load("bending_capsule", 31);
+    let pass = self_pass(&l, &[]);
+    let pose = l.rig.pose_at(Some(0), l.times[30]);
+    let mut folded = l.frame(30);
+    let out = pass.run(&l.rig, &pose, &mut folded).expect("runs");
+    assert!(!out.folds.is_empty() && out.inside_out.is_empty());
+    let inverted = vec![reflected(&l.frame(30)[0])];
+    let mut positions = inverted.clone();
+    let out = pass.run(&l.rig, &pose, &mut positions).expect("runs");
+    assert_eq!(out.inside_out, vec![0]);
+    assert!(out.folds.is_empty() && out.failed.is_empty());
+    assert_eq!(positions, inverted, "as it came");
+}

@@ -172,6 +172,19 @@ impl ContactFrame {
     pub fn fold_count(&self) -> usize {
         self.self_output.as_ref().map_or(0, |s| s.folds.len())
     }
+
+    /// The bodies this frame turned inside out that a pass left out (the object pass's, then
+    /// the self-contact pass's), each once, ascending.
+    pub fn inside_out(&self) -> Vec<usize> {
+        let folds = self.self_output.as_ref().map(|s| s.inside_out.as_slice());
+        let mut bodies: Vec<usize> = (self.output.inside_out.iter())
+            .chain(folds.unwrap_or_default())
+            .copied()
+            .collect();
+        bodies.sort_unstable();
+        bodies.dedup();
+        bodies
+    }
 }
 
 /// Skins frame `index` at time `t` and runs the passes on it: the object pass, then the
@@ -248,6 +261,9 @@ pub struct FrameDiagnostics {
     /// Contacts and deformations that failed and were left as they came in, with what failed
     /// ([`contact_skin::pass::PassOutput::failed`]).
     pub contacts_failed: Vec<contact_skin::pass::FailedContact>,
+    /// Bodies the frame turned inside out, left out of the passes
+    /// ([`contact_skin::pass::PassOutput::inside_out`]).
+    pub inside_out: Vec<usize>,
     /// Stage timings in seconds.
     pub timings_s: StageTimings,
     /// Folds resolved by the self-contact pass, in the order they ran (empty when it is off).
@@ -364,6 +380,7 @@ pub fn diagnostics(rig: &Rig, pre: &Precomputed, c: &ContactFrame) -> FrameDiagn
         later_contacts: c.output.later_contacts,
         contacts_without_direction: c.output.pairs_without_direction,
         contacts_failed: c.output.failed.clone(),
+        inside_out: c.inside_out(),
         timings_s: c.output.timings,
         folds: so.map_or(Vec::new(), fold_diagnostics),
         folds_without_direction: so.map_or(0, |s| s.no_direction),

@@ -137,6 +137,11 @@ struct Summary {
     contacts_failed: usize,
     /// The first of them: `frame N: error`.
     first_contact_failure: Option<String>,
+    /// Bodies turned inside out by their pose (a joint scaled by a negative factor), left out
+    /// of the passes in that frame, summed over the frames (a warning naming the first).
+    bodies_inside_out: usize,
+    /// The first of them: `frame N: body 'NAME'`.
+    first_inside_out: Option<String>,
     /// Pairs of bodies whose surfaces cross at rest (modeled overlaps, as a robot's pieces at
     /// their hinges), left out of the contact pass (`[[pair]] enabled = true` resolves one).
     pairs_left_out_at_rest: Vec<[String; 2]>,
@@ -264,6 +269,8 @@ struct FrameStats {
     contacts: usize,
     contacts_without_direction: usize,
     contacts_failed: Vec<FailedContact>,
+    /// Bodies turned inside out, left out of the passes.
+    inside_out: Vec<usize>,
     timings: Option<StageTimings>,
     diagnostics: bool,
     /// Names of the folds resolved.
@@ -446,6 +453,11 @@ fn summarize(
         first_contact_failure: first_failure(stats, |s| {
             s.contacts_failed.first().map(|f| f.error.clone())
         }),
+        bodies_inside_out: stats.iter().map(|s| s.inside_out.len()).sum(),
+        first_inside_out: first_failure(stats, |s| {
+            let b = *s.inside_out.first()?;
+            Some(format!("body '{}'", rig.bodies[b].name))
+        }),
         pairs_left_out_at_rest: job.contact.map_or(Vec::new(), |c| {
             let name = |b: usize| rig.bodies[b].name.clone();
             let left_out = c.pass.left_out_at_rest();
@@ -509,6 +521,14 @@ fn print_summary(s: &Summary, a: &Args) -> CliResult {
              skinned, the others resolved (first: {first}); `[[pair]] enabled = false` or \
              `[[object]] contact = false` in the configuration leaves a pair or a body out",
             s.contacts_failed
+        );
+    }
+    if let Some(first) = &s.first_inside_out {
+        eprintln!(
+            "warning: {} time(s) a pose turned a closed body inside out (a joint scaled by a \
+             negative factor: its signed volume changed sign), left out of the passes in that \
+             frame (first: {first})",
+            s.bodies_inside_out
         );
     }
     if s.contacts_without_direction > 0 {
@@ -818,6 +838,7 @@ fn compute_unchecked(
             contacts: 0,
             contacts_without_direction: 0,
             contacts_failed: Vec::new(),
+            inside_out: Vec::new(),
             timings: None,
             diagnostics: false,
             folds: Vec::new(),
@@ -846,6 +867,7 @@ fn compute_unchecked(
         contacts: cf.output.contacts.len(),
         contacts_without_direction: cf.output.pairs_without_direction,
         contacts_failed: cf.output.failed.clone(),
+        inside_out: cf.inside_out(),
         timings: Some(cf.output.timings),
         diagnostics: job.args.diagnostics,
         folds: so.map_or(Vec::new(), |s| {

@@ -307,9 +307,85 @@ pub fn signed_volume(positions: &[Point3<f64>], triangles: &[[u32; 3]]) -> f64 {
         / 6.0
 }
 
+/// Whether `triangles` form a closed, consistently oriented surface: every directed edge once,
+/// its reverse once (the surfaces whose signed volume does not depend on the origin).
+pub fn closed_and_oriented(triangles: &[[u32; 3]]) -> bool {
+    let mut edges: Vec<[u32; 2]> = (triangles.iter())
+        .flat_map(|t| [[t[0], t[1]], [t[1], t[2]], [t[2], t[0]]])
+        .collect();
+    edges.sort_unstable();
+    let once = edges.windows(2).all(|w| w[0] != w[1]);
+    once && !edges.is_empty()
+        && edges
+            .iter()
+            .all(|&[a, b]| a != b && edges.binary_search(&[b, a]).is_ok())
+}
+
+/// A closed body's orientation at rest, to tell when a pose turns it inside out (a joint
+/// scaled by a negative factor in an animation: the rest pose's mirror is undone at load,
+/// `rig::orientation`, an animated one cannot be).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RestVolume {
+    volume: f64,
+    vertices: usize,
+}
+
+impl RestVolume {
+    /// The rest signed volume of a closed, consistently oriented surface that encloses some
+    /// (`None` otherwise: an open surface's signed volume depends on the origin; `None` too
+    /// for a face naming a vertex `rest` does not have).
+    pub fn of(rest: &[Point3<f64>], triangles: &[[u32; 3]]) -> Option<Self> {
+        let n = rest.len();
+        let indexed = triangles.iter().flatten().all(|&v| (v as usize) < n);
+        if !(indexed && closed_and_oriented(triangles)) {
+            return None;
+        }
+        let volume = signed_volume(rest, triangles);
+        (volume.is_finite() && volume != 0.0).then_some(Self {
+            volume,
+            vertices: n,
+        })
+    }
+
+    /// Whether `positions` (the rest's vertex count; any other count is not judged) enclose a
+    /// signed volume of the other sign than at rest: the pose turned the body inside out.
+    pub fn inside_out(&self, positions: &[Point3<f64>], triangles: &[[u32; 3]]) -> bool {
+        positions.len() == self.vertices && signed_volume(positions, triangles) * self.volume < 0.0
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A closed tetrahedron has a rest volume, an open or doubly used one none; mirrored, its
+    /// positions are inside out, moved rigidly or scaled they are not.
+    #[test]
+    fn a_mirrored_tetrahedron_is_inside_out() {
+        let p = [
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 0.0, 1.0],
+        ]
+        .map(|[x, y, z]| Point3::new(x, y, z));
+        let t = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]];
+        let v = RestVolume::of(&p, &t).expect("closed");
+        assert!(RestVolume::of(&p, &t[..3]).is_none(), "open");
+        assert!(
+            RestVolume::of(&p, &[t, t].concat()).is_none(),
+            "edges used twice"
+        );
+        assert!(RestVolume::of(&p[..3], &t).is_none(), "a vertex missing");
+        let moved = p.map(|q| Point3::new(2.0 * q.z + 5.0, q.x, 3.0 * q.y));
+        assert!(!v.inside_out(&moved, &t), "a rotation and a scale");
+        let mirrored = p.map(|q| Point3::new(-q.x, q.y, q.z));
+        assert!(v.inside_out(&mirrored, &t));
+        assert!(
+            !v.inside_out(&mirrored[..3], &t),
+            "another vertex count is not judged"
+        );
+    }
 
     #[test]
     fn the_diagonal_of_a_huge_box_stays_finite() {

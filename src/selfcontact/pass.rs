@@ -14,7 +14,7 @@ use super::turn_guard::TurnReference;
 use super::SelfContactError;
 use crate::intersect::{FaceSets, IntersectError, MeshIndex, PosedMesh, TriangleBvh};
 use crate::mesh::operators::{mean_edge_length, vertex_normals, NormalWeighting};
-use crate::mesh::WeldedMesh;
+use crate::mesh::{RestVolume, WeldedMesh};
 use crate::report::metrics::{penetrating_among, WindingNumber};
 use crate::rig::{Pose, Rig};
 use crate::skinning::{cofactor, unit_or_zero};
@@ -81,6 +81,12 @@ pub struct SelfPassOutput {
     /// 2026-12-05 one such fold stopped the whole run; the inputs found to make one fail are
     /// broken meshes (a triangle list read as a strip) and rigs scaled to `1e-30`.
     pub failed: Vec<FailedFold>,
+    /// Closed bodies that the frame turned inside out (signed volume of the other sign than at
+    /// rest: a joint scaled by a negative factor in the animation), each once: their folds
+    /// found intersecting are left as they are (resolved with inward normals, they turned the
+    /// wrong way), as [`crate::pass::PassOutput::inside_out`] leaves such a body out of the
+    /// contacts between bodies.
+    pub inside_out: Vec<usize>,
 }
 
 /// A fold that failed in a frame ([`SelfPassOutput::failed`]).
@@ -107,6 +113,8 @@ pub struct SelfContactPass {
     rest_pose: Pose,
     /// Mean rest edge length of each body, the unit of the sweeps' penetration test.
     rest_edge: Vec<f64>,
+    /// Each closed body's rest signed volume ([`SelfPassOutput::inside_out`]).
+    rest_volumes: Vec<Option<RestVolume>>,
     passes: usize,
     max_passes: usize,
     /// Joint pairs left out when deriving, one reason each ([`derive_pairs_reporting`]).
@@ -241,6 +249,11 @@ impl SelfContactPass {
                 .iter()
                 .zip(welded)
                 .map(|(r, w)| mean_edge_length(r, &w.triangles))
+                .collect(),
+            rest_volumes: rest
+                .iter()
+                .zip(welded)
+                .map(|(r, w)| RestVolume::of(r, &w.triangles))
                 .collect(),
             passes: DEFAULT_FOLD_PASSES,
             max_passes: DEFAULT_MAX_FOLD_PASSES,
@@ -638,6 +651,13 @@ impl SelfContactPass {
         let Some(detection) = detection.map_err(fail)? else {
             return Ok(false);
         };
+        let positions = bodies.positions(fold.body);
+        if (self.rest_volumes[fold.body]).is_some_and(|v| v.inside_out(positions, tris)) {
+            if !out.inside_out.contains(&fold.body) {
+                out.inside_out.push(fold.body);
+            }
+            return Ok(false);
+        }
         // Separated regions take Eq. 2's direction from their contact, inside the fold.
         let direction = if fold.pre.regions.separated() {
             Some(Vector3::zeros())
