@@ -1543,3 +1543,76 @@ fn the_robots_modeled_overlaps_are_left_out() {
     assert!(volume > 0.0 && volume < 1e-9, "{volume}");
     let _ = std::fs::remove_dir_all(&config);
 }
+
+/// A joint scaled by -1 in the animation turns a body inside out in the frames after it (the
+/// load-time reorientation sees the rest pose only): the capsule pair with a STEP scale key
+/// `[-1, 1, 1]` on the upper capsule's joint at mid-animation. `pose` leaves that capsule out of
+/// the contacts in those frames and says so (the JSON summary, a warning, the diagnostics),
+/// turns no face over, and resolves the frames before as usual.
+#[test]
+fn a_body_mirrored_by_its_animation_is_left_out_and_reported() {
+    let bytes = std::fs::read(committed("capsule_pair")).expect("rig");
+    let glb_json = glb::json(&bytes);
+    let end = glb_json["accessors"][12]["max"][0]
+        .as_f64()
+        .expect("the key times' max");
+    let data: Vec<u8> = [0.0f32, (end / 2.0) as f32]
+        .iter()
+        .chain(&[1.0f32, 1.0, 1.0, -1.0, 1.0, 1.0])
+        .flat_map(|x| x.to_le_bytes())
+        .collect();
+    let mirrored = glb::with_bin_appended(&bytes, &data, |json, offset| {
+        let views = json["bufferViews"].as_array_mut().expect("views");
+        let view = |offset: usize, length: usize| serde_json::json!({"buffer": 0, "byteOffset": offset, "byteLength": length});
+        views.push(view(offset, 8));
+        views.push(view(offset + 8, 24));
+        let v = views.len();
+        let accessors = json["accessors"].as_array_mut().expect("accessors");
+        accessors.push(
+            serde_json::json!({"bufferView": v - 2, "componentType": 5126,
+            "count": 2, "type": "SCALAR", "min": [0.0], "max": [end / 2.0]}),
+        );
+        accessors.push(
+            serde_json::json!({"bufferView": v - 1, "componentType": 5126,
+            "count": 2, "type": "VEC3"}),
+        );
+        let a = accessors.len();
+        let animation = &mut json["animations"][0];
+        let samplers = animation["samplers"].as_array_mut().expect("samplers");
+        samplers.push(serde_json::json!({"input": a - 2, "output": a - 1,
+            "interpolation": "STEP"}));
+        let sampler = samplers.len() - 1;
+        let channels = animation["channels"].as_array_mut().expect("channels");
+        channels.push(serde_json::json!({"sampler": sampler,
+            "target": {"node": 2, "path": "scale"}}));
+    });
+    let dir = tmp("mirrored-by-animation");
+    std::fs::create_dir_all(&dir).expect("dir");
+    let rig_path = dir.join("mirrored.glb");
+    std::fs::write(&rig_path, mirrored).expect("write the rig");
+    let out = dir.join("out");
+    let run = pose_frames(
+        &rig_path,
+        &out,
+        "11",
+        &["--json", "--metrics", "--diagnostics"],
+    );
+    let summary: Value = serde_json::from_slice(&run.stdout).expect("JSON summary");
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    // Frames 5 to 10 of 11 lie at or after mid-animation.
+    assert_eq!(summary["bodies_inside_out"], 6, "{summary}");
+    assert_eq!(summary["first_inside_out"], "frame 5: body 'capsule_upper'");
+    assert!(stderr.contains("inside out"), "{stderr}");
+    assert_eq!(summary["metrics"]["turned_faces"]["value"], 0);
+    assert!(
+        summary["contact_frames"].as_u64() > Some(0),
+        "the frames before resolve"
+    );
+    let diagnostics = read_json(&out.join("frame_0008.diag.json"));
+    assert_eq!(diagnostics["inside_out"], serde_json::json!([1]));
+    assert!(diagnostics["contacts"]
+        .as_array()
+        .expect("contacts")
+        .is_empty());
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -36,3 +36,31 @@ pub fn with_json(glb: &[u8], edit: impl FnOnce(&mut Value)) -> Vec<u8> {
     out.extend_from_slice(rest);
     out
 }
+
+/// `glb` with `data` appended to its BIN chunk (4-byte aligned; the buffer's `byteLength`
+/// updated) and its JSON then edited by `edit`, given the byte offset of `data` in the buffer.
+pub fn with_bin_appended(glb: &[u8], data: &[u8], edit: impl FnOnce(&mut Value, usize)) -> Vec<u8> {
+    let start = bin_start(glb);
+    let header = &glb[start - 8..start];
+    let length = u32::from_le_bytes(header[..4].try_into().expect("a BIN chunk")) as usize;
+    let mut bin = glb[start..start + length].to_vec();
+    let offset = bin.len().next_multiple_of(4);
+    bin.resize(offset, 0);
+    bin.extend_from_slice(data);
+    bin.resize(bin.len().next_multiple_of(4), 0);
+    let mut value = json(glb);
+    value["buffers"][0]["byteLength"] = Value::from(bin.len());
+    edit(&mut value, offset);
+    let mut text = serde_json::to_vec(&value).expect("json");
+    text.resize(text.len().next_multiple_of(4), b' ');
+    let mut out = Vec::with_capacity(28 + text.len() + bin.len());
+    out.extend_from_slice(&glb[..8]);
+    out.extend_from_slice(&((28 + text.len() + bin.len()) as u32).to_le_bytes());
+    out.extend_from_slice(&(text.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"JSON");
+    out.extend_from_slice(&text);
+    out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"BIN\0");
+    out.extend_from_slice(&bin);
+    out
+}
