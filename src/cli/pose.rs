@@ -98,9 +98,10 @@ pub struct Args {
     #[arg(long)]
     json: bool,
     /// Also measure every frame against its skinned input (MEASURING.md): penetrating
-    /// vertices before and after, largest depth, volume error (closed bodies), inverted and turned faces,
-    /// non-finite values, and the run's temporal second-difference ratio (the output's largest
-    /// second difference over the input's: where the output pops it grows with the square of
+    /// vertices before and after, largest depth, volume error (closed bodies), inverted and
+    /// turned faces, non-finite values, and the run's temporal second-difference ratio (the
+    /// output's largest second difference over the input's: where the output pops it grows
+    /// with the square of
     /// `--frames`, where a vertex enters a contact zone (a kink) in proportion to it, so
     /// compare runs at one frame count) and its displacement-step ratio (the largest change of
     /// the passes' displacement from one frame to the next over the input's fastest vertex's

@@ -83,9 +83,11 @@ pub struct SelfPassOutput {
     pub failed: Vec<FailedFold>,
     /// Closed bodies that the frame turned inside out (signed volume of the other sign than at
     /// rest: a joint scaled by a negative factor in the animation), each once: their folds
-    /// found intersecting are left as they are (resolved with inward normals, they turned the
-    /// wrong way), as [`crate::pass::PassOutput::inside_out`] leaves such a body out of the
-    /// contacts between bodies.
+    /// found intersecting are left as they are, as [`crate::pass::PassOutput::inside_out`]
+    /// leaves such a body out of the contacts between bodies. A fold reads the winding as
+    /// outward (its zones, its direction, its bulge): on the bending capsule with its root
+    /// scaled by -1 from mid-animation the pass resolved none of the mirrored frames, silently
+    /// (measured 2026-12-05); now they are reported.
     pub inside_out: Vec<usize>,
 }
 
