@@ -1526,10 +1526,11 @@ fn the_robots_modeled_overlaps_are_left_out() {
         Some(11)
     );
     assert_eq!(default, skinned, "the hand as skinned");
-    // Its shoulder sinks into its torso (both open: no volume to keep or measure).
+    // Its shoulder sinks into its torso: both open, no volume to keep or measure (the
+    // divergence-theorem "volume" of the open pieces changed by 15-19 %).
     assert!(summary["contact_frames"].as_u64() > Some(0));
     let volume = summary["metrics"]["volume_error"]["value"].as_f64();
-    assert!(volume < Some(1e-12), "closed bodies only: {volume:?}");
+    assert_eq!(volume, Some(0.0), "no closed body moved");
     let (summary, enabled) = run("robot-wrist", &["--config", s(&enable), "--metrics"]);
     assert_eq!(
         summary["pairs_left_out_at_rest"].as_array().map(Vec::len),

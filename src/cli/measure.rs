@@ -67,11 +67,12 @@ pub fn turned_faces(
     sum
 }
 
-/// Per body, whether it is a closed oriented 2-manifold: the bodies whose volume
-/// [`volume_error`] measures.
+/// Per body, whether its welded surface is closed and consistently oriented
+/// ([`contact_skin::mesh::closed_and_oriented`], as the passes judge it): the bodies whose
+/// volume [`volume_error`] measures.
 pub fn closed_bodies(pre: &Precomputed) -> Vec<bool> {
     (pre.welded.iter())
-        .map(|w| w.report.is_closed_manifold())
+        .map(|w| contact_skin::mesh::closed_and_oriented(&w.triangles))
         .collect()
 }
 
@@ -79,7 +80,7 @@ pub fn closed_bodies(pre: &Precomputed) -> Vec<bool> {
 /// volumes; a body the passes left alone changes by exactly 0). An open body has no volume
 /// (`MEASURING.md` measures closed bodies; the passes keep no volume there): until 2026-12-05
 /// its divergence-theorem "volume" counted, and the Quaternius robot's open pieces reported
-/// errors of up to 15 % where its closed ones kept theirs to round-off.
+/// errors of 15-19 % where its closed ones kept theirs to round-off.
 pub fn volume_error(
     tris: &[&[[u32; 3]]],
     closed: &[bool],

@@ -190,8 +190,8 @@ pub fn resolve_pair(
 /// Whether two separate surfaces cross each other along curves longer than a touch: the test
 /// that opens a contact in a frame ([`resolve_pair_lazily`]), which
 /// [`crate::pass::ContactPass::new`] runs once on the bodies' rest pose (a pair crossing at
-/// rest is a modeled overlap, left out by default). Surfaces lying on each other are
-/// [`ContactError::Coincident`], as in a frame's first pass.
+/// rest is a modeled overlap, which `pose` leaves out: [`crate::pass::RestOverlaps`]).
+/// Surfaces lying on each other are [`ContactError::Coincident`], as in a frame's first pass.
 pub fn surfaces_cross(meshes: [&PosedMesh; 2]) -> Result<bool, ContactError> {
     let params = PairParams {
         refuse_coincident: true,
