@@ -1549,7 +1549,8 @@ fn the_robots_modeled_overlaps_are_left_out() {
 /// load-time reorientation sees the rest pose only): the capsule pair with a STEP scale key
 /// `[-1, 1, 1]` on the upper capsule's joint at mid-animation. `pose` leaves that capsule out of
 /// the contacts in those frames and says so (the JSON summary, a warning, the diagnostics),
-/// turns no face over, and resolves the frames before as usual.
+/// turns no face over, and resolves the frames before as usual; `--metrics` measures the
+/// mirrored capsule outward (its winding reversed), so that the interpenetration left counts.
 #[test]
 fn a_body_mirrored_by_its_animation_is_left_out_and_reported() {
     let bytes = std::fs::read(committed("capsule_pair")).expect("rig");
@@ -1609,6 +1610,10 @@ fn a_body_mirrored_by_its_animation_is_left_out_and_reported() {
         summary["contact_frames"].as_u64() > Some(0),
         "the frames before resolve"
     );
+    // Measured outward: the mirrored frames' interpenetration counted, and left as it came.
+    let frame = &summary["metrics"]["frames"][8];
+    assert!(frame["penetrating_before"].as_u64() > Some(100), "{frame}");
+    assert_eq!(frame["penetrating_after"], frame["penetrating_before"]);
     let diagnostics = read_json(&out.join("frame_0008.diag.json"));
     assert_eq!(diagnostics["inside_out"], serde_json::json!([1]));
     assert!(diagnostics["contacts"]

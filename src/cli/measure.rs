@@ -10,6 +10,7 @@ use contact_skin::report::metrics;
 use contact_skin::rig::Rig;
 use nalgebra::{Point3, Vector3};
 use serde::Serialize;
+use std::borrow::Cow;
 
 /// Welded positions per body.
 pub type Bodies = Vec<Vec<Point3<f64>>>;
@@ -32,24 +33,54 @@ pub fn rest_edge_length(rig: &Rig, pre: &Precomputed) -> f64 {
 }
 
 /// Residual penetration (`MEASURING.md`) of a frame's bodies together: a vertex is flagged
-/// inside another body or inside another part of its own body (a fold).
+/// inside another body or inside another part of its own body (a fold). A closed body whose
+/// positions enclose a negative signed volume (turned inside out by its pose: a joint scaled
+/// by -1 in the animation) is measured with its winding reversed, so that its inside is
+/// inside: read as it winds, its winding number is -1 there and nothing in it counted as
+/// penetrating (the capsule pair mirrored from mid-animation: 0 penetrating vertices in the
+/// frames where the capsules are pressed deepest).
 pub fn penetration(
     positions: &[Vec<Point3<f64>>],
     tris: &[&[[u32; 3]]],
     h: f64,
 ) -> metrics::Penetration {
-    let normals: Vec<Vec<Vector3<f64>>> = positions
+    let outward: Vec<Cow<[[u32; 3]]>> = positions
         .iter()
         .zip(tris)
+        .map(|(p, &t)| outward_winding(p, t))
+        .collect();
+    let normals: Vec<Vec<Vector3<f64>>> = positions
+        .iter()
+        .zip(&outward)
         .map(|(p, t)| vertex_normals(p, t, NormalWeighting::Area))
         .collect();
     let bodies: Vec<metrics::Body> = positions
         .iter()
-        .zip(tris)
+        .zip(&outward)
         .zip(&normals)
-        .map(|((p, t), n)| (p.as_slice(), *t, n.as_slice()))
+        .map(|((p, t), n)| (p.as_slice(), t.as_ref(), n.as_slice()))
         .collect();
     metrics::residual_penetration_bodies(&bodies, h)
+}
+
+/// `triangles` reversed when they close a surface that `positions` turn inside out (a negative
+/// signed volume), else as they are.
+fn outward_winding<'t>(
+    positions: &[Point3<f64>],
+    triangles: &'t [[u32; 3]],
+) -> Cow<'t, [[u32; 3]]> {
+    let indexed = triangles
+        .iter()
+        .flatten()
+        .all(|&v| (v as usize) < positions.len());
+    let inside_out = indexed
+        && contact_skin::mesh::closed_and_oriented(triangles)
+        && signed_volume(positions, triangles) < 0.0;
+    if inside_out {
+        Cow::Owned(triangles.iter().map(|&[a, b, c]| [a, c, b]).collect())
+    } else {
+        Cow::Borrowed(triangles)
+    }
 }
 
 /// [`metrics::turned_faces`] summed over the bodies (`skinned`: the skinning's normals).
