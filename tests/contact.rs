@@ -599,7 +599,8 @@ fn bodies_and_pairs_left_out_of_the_contact_pass() {
 /// enables it: the capsule pair built on its deepest frame as its rest pose (the capsules
 /// pressed into each other) leaves that frame as it came, and resolves it, no vertex deeper
 /// than the chord tolerance, once the pair is enabled or with the library's default
-/// (`RestOverlaps::Resolved`); built on its own rest pose (apart) nothing crosses at rest.
+/// (`RestOverlaps::Resolved`); built on its own rest pose (apart) nothing crosses at rest, nor
+/// on the fingertips' (their boxes overlap the ball's at rest, their surfaces do not).
 #[test]
 fn a_pair_crossing_at_rest_is_left_out_unless_enabled() {
     use contact_skin::pass::{PairOverride, RestBody, RestOverlaps};
@@ -607,6 +608,9 @@ fn a_pair_crossing_at_rest_is_left_out_unless_enabled() {
     let input = l.frame(30);
     let apart = l.pass(object_params(2, &[1.0], 0.0), vec![]);
     assert!(apart.crossing_at_rest().is_empty());
+    // The fingertips' rest boxes overlap the ball's; their surfaces do not cross.
+    let near = load("fingertips_ball", 31).pass(object_params(4, &[1.0], 0.0), vec![]);
+    assert!(near.crossing_at_rest().is_empty());
     let pressed: Vec<RestBody> = (input.iter().zip(&l.triangles))
         .map(|(p, t)| (p.as_slice(), t.as_slice()))
         .collect();
