@@ -8,7 +8,8 @@
 //! the thread count.
 
 use crate::contact::{
-    resolve_pair_lazily, Contact, ContactError, ContactSide, DirectionMode, PairOutcome, PairParams,
+    crossing, resolve_crossing, Contact, ContactError, ContactSide, DirectionMode, PairOutcome,
+    PairParams,
 };
 use crate::deform::{
     deform_region, DeformError, DeformParams, RegionDeformation, RegionFrame, WorkingRegion,
@@ -255,6 +256,34 @@ struct FoundContacts {
     failed: Vec<FailedContact>,
 }
 
+/// What a pass makes of each body only when one of its pairs crosses (nothing in a frame
+/// without contact): its area-weighted vertex normals, and whether the frame turned it inside
+/// out ([`PassOutput::inside_out`]).
+struct AtFirstCrossing {
+    normals: Vec<OnceLock<Vec<Vector3<f64>>>>,
+    turned: Vec<OnceLock<bool>>,
+}
+
+impl AtFirstCrossing {
+    fn new(bodies: usize) -> Self {
+        Self {
+            normals: (0..bodies).map(|_| OnceLock::new()).collect(),
+            turned: (0..bodies).map(|_| OnceLock::new()).collect(),
+        }
+    }
+
+    /// The normals made (empty where none was) and the bodies found inside out, ascending.
+    fn into_parts(self) -> (Vec<Vec<Vector3<f64>>>, Vec<usize>) {
+        let inside_out = (0..self.turned.len())
+            .filter(|&b| self.turned[b].get() == Some(&true))
+            .collect();
+        let normals = (self.normals.into_iter())
+            .map(|n| n.into_inner().unwrap_or_default())
+            .collect();
+        (normals, inside_out)
+    }
+}
+
 /// Precomputed per body.
 #[derive(Clone, Debug)]
 struct PassBody {
@@ -293,11 +322,7 @@ impl BodyGeometry {
 /// (`crossing_at_rest`: their surfaces cross at rest and the pass leaves such pairs out,
 /// [`RestOverlaps::LeftOut`]): not when an override disables it (the configuration allows one
 /// per pair; any that does), else when one enables it or the pair is not such a pair.
-pub fn resolves_pair(
-    overrides: &[PairOverride],
-    bodies: [usize; 2],
-    crossing_at_rest: bool,
-) -> bool {
+fn resolves_pair(overrides: &[PairOverride], bodies: [usize; 2], crossing_at_rest: bool) -> bool {
     let [a, b] = bodies;
     let set = (overrides.iter())
         .filter(|o| o.bodies == [a, b] || o.bodies == [b, a])
@@ -310,42 +335,19 @@ pub fn resolves_pair(
     !off && (on || !crossing_at_rest)
 }
 
-/// [`ContactPass::crossing_at_rest`] of the bodies `rest` with their `params`, without the rest
-/// of the pass (for `contact-skin info`).
-pub fn pairs_crossing_at_rest(
-    rest: &[RestBody],
-    params: &[ObjectParams],
-) -> Result<Vec<[usize; 2]>, PassError> {
-    let indices = (rest.iter().zip(params).enumerate())
-        .map(|(body, (&(pos, tris), p))| {
-            (p.contact)
-                .then(|| MeshIndex::new(pos, tris))
-                .transpose()
-                .map_err(|source| PassError::Intersect { body, source })
-        })
-        .collect::<Result<Vec<_>, PassError>>()?;
-    crossing_at_rest(
-        rest,
-        &indices.iter().map(Option::as_ref).collect::<Vec<_>>(),
-    )
-}
-
-/// The pairs of bodies with an index (`indices`, one per body) whose boxes overlap at their
-/// `rest` positions and whose surfaces cross there ([`ContactPass::crossing_at_rest`]). A pair
-/// whose test fails (surfaces lying on each other, entangled ones) is not counted: the frames
-/// refuse it as they would.
-fn crossing_at_rest(
-    rest: &[RestBody],
-    indices: &[Option<&MeshIndex>],
-) -> Result<Vec<[usize; 2]>, PassError> {
-    let posed: Vec<Option<(PosedMesh, Aabb)>> = (indices.iter().zip(rest).enumerate())
-        .map(|(body, (index, &(pos, _)))| {
-            let Some(index) = index else {
+/// The pairs of `bodies` in contacts whose boxes overlap at their `rest` positions and whose
+/// surfaces cross there ([`ContactPass::crossing_at_rest`]). A pair whose test fails
+/// (surfaces lying on each other, entangled ones) is not counted: the frames refuse it as they
+/// would.
+fn crossing_at_rest(rest: &[RestBody], bodies: &[PassBody]) -> Result<Vec<[usize; 2]>, PassError> {
+    let posed: Vec<Option<(PosedMesh, Aabb)>> = (bodies.iter().zip(rest).enumerate())
+        .map(|(body, (b, &(pos, _)))| {
+            let Some(g) = &b.geometry else {
                 return Ok(None);
             };
             let intersect = |source| PassError::Intersect { body, source };
-            let aabb = index.bounding_box(pos).map_err(intersect)?;
-            let mesh = index.pose(pos).map_err(intersect)?;
+            let aabb = g.index.bounding_box(pos).map_err(intersect)?;
+            let mesh = g.index.pose(pos).map_err(intersect)?;
             Ok(aabb.map(|aabb| (mesh, aabb)))
         })
         .collect::<Result<_, PassError>>()?;
@@ -359,7 +361,10 @@ fn crossing_at_rest(
     Ok(overlapping
         .into_par_iter()
         .filter(|&[a, b]| match (&posed[a], &posed[b]) {
-            (Some((x, _)), Some((y, _))) => crate::contact::surfaces_cross([x, y]).unwrap_or(false),
+            (Some((x, _)), Some((y, _))) => {
+                let found = crossing([x, y], &PairParams::default());
+                found.is_ok_and(|c| c.is_some())
+            }
             _ => false,
         })
         .collect())
@@ -486,8 +491,8 @@ pub struct PassOutput {
     /// (their other sides were deformed).
     pub failed: Vec<FailedContact>,
     /// Closed bodies that the frame turned inside out (their signed volume of the other sign
-    /// than at rest: a joint scaled by a negative factor in the animation), left out of the
-    /// contacts and as they came, each once. The passes take a body's winding for outward
+    /// than at rest: a joint scaled by a negative factor in the animation), judged when one of
+    /// their pairs crosses and then left out of the contacts and as they came, each once. The passes take a body's winding for outward
     /// (the rest pose's mirror is undone at load); on one turned inside out they resolved the
     /// wrong way (the capsule pair with one capsule mirrored from mid-animation: 634 faces
     /// turned over by the pass in a frame, found 2026-12-05).
@@ -610,10 +615,7 @@ impl ContactPass {
                 })
             })
             .collect::<Result<Vec<_>, PassError>>()?;
-        let indices: Vec<Option<&MeshIndex>> = (bodies.iter())
-            .map(|b| b.geometry.as_ref().map(|g| &g.index))
-            .collect();
-        let crossing_at_rest = crossing_at_rest(rest, &indices)?;
+        let crossing_at_rest = crossing_at_rest(rest, &bodies)?;
         Ok(Self {
             bodies,
             params,
@@ -626,7 +628,7 @@ impl ContactPass {
 
     /// The pairs of bodies in contacts whose surfaces already cross at the positions the pass
     /// was built on (`[a, b]`, `a < b`; beyond a touch, by the test that opens a contact in a
-    /// frame, [`crate::contact::surfaces_cross`]). What the pass does with them:
+    /// frame, [`crate::contact::crossing`]). What the pass does with them:
     /// [`ContactPass::with_rest_overlaps`].
     pub fn crossing_at_rest(&self) -> &[[usize; 2]] {
         &self.crossing_at_rest
@@ -766,21 +768,14 @@ impl ContactPass {
         let boxes = self.boxes(positions)?;
         let mut pairs = self.candidate_pairs(&boxes);
         pairs.retain(|&(a, b)| pass.tries(a, b));
-        let inside_out = self.inside_out(positions, &pairs);
-        pairs.retain(|(a, b)| !(inside_out.contains(a) || inside_out.contains(b)));
         let posed = self.posed(positions, &pairs)?;
         let mut timings = StageTimings {
             setup: wall.elapsed().as_secs_f64(),
             ..Default::default()
         };
-        // Each body's normals made at its first contact (none in a frame without one).
-        let normals: Vec<OnceLock<Vec<Vector3<f64>>>> =
-            positions.iter().map(|_| OnceLock::new()).collect();
-        let found = self.contacts(positions, &normals, &posed, &pairs, time, pass);
-        let normals: Vec<Vec<Vector3<f64>>> = normals
-            .into_iter()
-            .map(|n| n.into_inner().unwrap_or_default())
-            .collect();
+        let lazy = AtFirstCrossing::new(positions.len());
+        let found = self.contacts(positions, &lazy, &posed, &pairs, time, pass);
+        let (normals, inside_out) = lazy.into_parts();
         for c in &found.contacts {
             timings.intersection += c.contact.timings.intersection;
             timings.mapping += c.contact.timings.mapping;
@@ -818,19 +813,6 @@ impl ContactPass {
             return false;
         };
         posed.is_some_and(|x| (x.max - x.min).norm() >= COLLAPSED * rest)
-    }
-
-    /// The closed bodies of `pairs` that `positions` turn inside out
-    /// ([`PassOutput::inside_out`]), ascending.
-    fn inside_out(&self, positions: &[Vec<Point3<f64>>], pairs: &[(usize, usize)]) -> Vec<usize> {
-        let mut paired: Vec<usize> = pairs.iter().flat_map(|&(a, b)| [a, b]).collect();
-        paired.sort_unstable();
-        paired.dedup();
-        paired.retain(|&b| {
-            let body = &self.bodies[b];
-            (body.rest_volume).is_some_and(|v| v.inside_out(&positions[b], &body.triangles))
-        });
-        paired
     }
 
     /// One position set per body, each with the body's vertex count.
@@ -916,11 +898,13 @@ impl ContactPass {
             .collect()
     }
 
-    /// The contacts (Sec. 4) of the candidate `pairs` of bodies, in parallel.
+    /// The contacts (Sec. 4) of the candidate `pairs` of bodies, in parallel; what each body
+    /// needs once a pair crosses made in `lazy` (a body turned inside out leaves its pairs
+    /// apart).
     fn contacts(
         &self,
         positions: &[Vec<Point3<f64>>],
-        normals: &[OnceLock<Vec<Vector3<f64>>>],
+        lazy: &AtFirstCrossing,
         posed: &[Option<PosedMesh>],
         pairs: &[(usize, usize)],
         time: f64,
@@ -928,7 +912,7 @@ impl ContactPass {
     ) -> FoundContacts {
         // Area-weighted vertex normals of body `k`, made once, when a contact first needs them.
         let normals_of = |k: usize| -> &[Vector3<f64>] {
-            normals[k].get_or_init(|| {
+            lazy.normals[k].get_or_init(|| {
                 vertex_normals(
                     &positions[k],
                     &self.bodies[k].triangles,
@@ -952,16 +936,28 @@ impl ContactPass {
                     return Ok(([a, b], PairOutcome::Apart));
                 };
                 let bodies = [a, b];
-                resolve_pair_lazily(
-                    [pa, pb],
-                    |k| normals_of(bodies[k]),
-                    &PairParams {
-                        refuse_coincident: matches!(pass, Pass::First),
-                        ..self.pair_params(a, b, time)
-                    },
-                )
-                .map(|outcome| ([a, b], outcome))
-                .map_err(|source| FailedContact::new(&[a, b], &PassError::Contact { a, b, source }))
+                let params = PairParams {
+                    refuse_coincident: matches!(pass, Pass::First),
+                    ..self.pair_params(a, b, time)
+                };
+                let fail =
+                    move |source| FailedContact::new(&bodies, &PassError::Contact { a, b, source });
+                let Some(found) = crossing([pa, pb], &params).map_err(fail)? else {
+                    return Ok((bodies, PairOutcome::Apart));
+                };
+                let inside_out = |k: usize| {
+                    let body = &self.bodies[k];
+                    *lazy.turned[k].get_or_init(|| {
+                        (body.rest_volume)
+                            .is_some_and(|v| v.inside_out(&positions[k], &body.triangles))
+                    })
+                };
+                if inside_out(a) | inside_out(b) {
+                    return Ok((bodies, PairOutcome::Apart));
+                }
+                resolve_crossing([pa, pb], found, |k| normals_of(bodies[k]), &params)
+                    .map(|outcome| (bodies, outcome))
+                    .map_err(fail)
             })
             .collect::<Vec<_>>();
         let mut out = FoundContacts::default();

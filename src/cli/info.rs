@@ -4,9 +4,7 @@ use super::CliResult;
 use contact_skin::config::{self, ContactConfig};
 use contact_skin::contact::zones::DEFAULT_SAFEGUARD_ANGLE;
 use contact_skin::mesh::{TopologyReport, WeldedMesh};
-use contact_skin::pass::{
-    pairs_crossing_at_rest, resolves_pair, rest_bodies, DEFAULT_EXTENT_FACTOR,
-};
+use contact_skin::pass::{rest_bodies, ContactPass, RestOverlaps, DEFAULT_EXTENT_FACTOR};
 use contact_skin::rig::{self, Rig};
 use contact_skin::selfcontact::{
     derive_pairs_reporting, extend_distinct, separated_from_skeleton, separated_regions,
@@ -705,8 +703,9 @@ pub fn run(a: &Args) -> CliResult {
     Ok(())
 }
 
-/// The pairs of bodies crossing at rest, as `pose`'s contact pass finds them (rest pose skinned
-/// with LBS, the configuration's objects left out of contacts excluded).
+/// The pairs of bodies crossing at rest, as `pose`'s contact pass finds them (its pass, built
+/// on the rest pose skinned with LBS, the configuration's objects left out of contacts
+/// excluded).
 fn describe_crossing_at_rest(
     path: &Path,
     explicit: Option<&Path>,
@@ -719,13 +718,14 @@ fn describe_crossing_at_rest(
     let pre = contact_skin::frames::Precomputed::new(rig, contact_skin::skinning::Method::Lbs);
     let (params, overrides, _) = cfg.resolve(rig, &pre.welded)?;
     let rest = contact_skin::frames::welded_positions(rig, &pre, None, 0.0);
-    let crossing = pairs_crossing_at_rest(&rest_bodies(&rest, &pre.welded), &params)?;
-    Ok(crossing
-        .into_iter()
-        .map(|bodies| RestCrossingInfo {
+    let pass = ContactPass::new(&rest_bodies(&rest, &pre.welded), params, overrides)?
+        .with_rest_overlaps(RestOverlaps::LeftOut);
+    let left_out = pass.left_out_at_rest();
+    Ok((pass.crossing_at_rest().iter())
+        .map(|&bodies| RestCrossingInfo {
             bodies,
             names: bodies.map(|b| rig.bodies[b].name.clone()),
-            resolved: resolves_pair(&overrides, bodies, true),
+            resolved: !left_out.contains(&bodies),
         })
         .collect())
 }

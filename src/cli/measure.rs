@@ -73,9 +73,10 @@ fn outward_winding<'t>(
         .iter()
         .flatten()
         .all(|&v| (v as usize) < positions.len());
+    // The sign first: the closedness test sorts the edges, and only a negative volume asks it.
     let inside_out = indexed
-        && contact_skin::mesh::closed_and_oriented(triangles)
-        && signed_volume(positions, triangles) < 0.0;
+        && signed_volume(positions, triangles) < 0.0
+        && contact_skin::mesh::closed_and_oriented(triangles);
     if inside_out {
         Cow::Owned(triangles.iter().map(|&[a, b, c]| [a, c, b]).collect())
     } else {
@@ -99,12 +100,10 @@ pub fn turned_faces(
 }
 
 /// Per body, whether its welded surface is closed and consistently oriented
-/// ([`contact_skin::mesh::closed_and_oriented`], as the passes judge it): the bodies whose
+/// ([`contact_skin::mesh::WeldedMesh::closed`], as the passes judge it): the bodies whose
 /// volume [`volume_error`] measures.
 pub fn closed_bodies(pre: &Precomputed) -> Vec<bool> {
-    (pre.welded.iter())
-        .map(|w| contact_skin::mesh::closed_and_oriented(&w.triangles))
-        .collect()
+    pre.welded.iter().map(|w| w.closed).collect()
 }
 
 /// The largest relative volume change of a `closed` body from `input` to `output` (signed

@@ -187,19 +187,6 @@ pub fn resolve_pair(
     resolve(a, b, params, Surfaces::Separate).map(PairOutcome::into_contact)
 }
 
-/// Whether two separate surfaces cross each other along curves longer than a touch: the test
-/// that opens a contact in a frame ([`resolve_pair_lazily`]), which
-/// [`crate::pass::ContactPass::new`] runs once on the bodies' rest pose (a pair crossing at
-/// rest is a modeled overlap, which `pose` leaves out: [`crate::pass::RestOverlaps`]).
-/// Surfaces lying on each other are [`ContactError::Coincident`], as in a frame's first pass.
-pub fn surfaces_cross(meshes: [&PosedMesh; 2]) -> Result<bool, ContactError> {
-    let params = PairParams {
-        refuse_coincident: true,
-        ..PairParams::default()
-    };
-    Ok(contact_curves(meshes, Surfaces::Separate, &params)?.is_some())
-}
-
 /// [`resolve_pair`] for the two truncated working regions of one mesh (2021 Sec. 6: Sections
 /// 4.2 to 4.4 "carried out on these truncated working regions without any modification"):
 /// both sides are parts of one mesh posed with the same positions (see
@@ -261,16 +248,50 @@ pub fn resolve_pair_lazily<'m, 'a>(
     normals: impl Fn(usize) -> &'m [Vector3<f64>],
     params: &PairParams,
 ) -> Result<PairOutcome, ContactError> {
+    match crossing(meshes, params)? {
+        Some(c) => resolve_crossing(meshes, c, normals, params),
+        None => Ok(PairOutcome::Apart),
+    }
+}
+
+/// Two separate surfaces found crossing ([`crossing`]): their intersection, and when the test
+/// began (its time counts in the contact's).
+#[derive(Debug)]
+pub struct Crossing {
+    ints: Intersections,
+    start: Instant,
+}
+
+/// The first step of [`resolve_pair_lazily`]: whether two separate surfaces cross along curves
+/// longer than a touch (surfaces lying on each other are [`ContactError::Coincident`] when
+/// `params` refuse them), without normals. [`crate::pass::ContactPass::new`] runs it on the
+/// bodies' rest pose (a pair crossing there is a modeled overlap, which `pose` leaves out:
+/// [`crate::pass::RestOverlaps`]), and the pass between its two steps leaves out a body turned
+/// inside out.
+pub fn crossing(
+    meshes: [&PosedMesh; 2],
+    params: &PairParams,
+) -> Result<Option<Crossing>, ContactError> {
     let start = Instant::now();
-    let Some(ints) = contact_curves(meshes, Surfaces::Separate, params)? else {
-        return Ok(PairOutcome::Apart);
-    };
+    let ints = contact_curves(meshes, Surfaces::Separate, params)?;
+    Ok(ints.map(|ints| Crossing { ints, start }))
+}
+
+/// The second step of [`resolve_pair_lazily`]: the contact of a [`crossing`] of `meshes`, the
+/// sides' normals made now.
+pub fn resolve_crossing<'m, 'a>(
+    meshes: [&'m PosedMesh<'a>; 2],
+    crossing: Crossing,
+    normals: impl Fn(usize) -> &'m [Vector3<f64>],
+    params: &PairParams,
+) -> Result<PairOutcome, ContactError> {
     let [a, b] = [0, 1].map(|k| SideFrame {
         mesh: meshes[k],
         normals: normals(k),
         hittable: None,
     });
     check_normals(&a, &b)?;
+    let Crossing { ints, start } = crossing;
     resolve_intersecting(a, b, ints, start, params, Surfaces::Separate)
 }
 

@@ -52,6 +52,9 @@ pub struct WeldedMesh {
     pub triangles: Vec<[u32; 3]>,
     /// Defects found.
     pub report: TopologyReport,
+    /// Closed and consistently oriented ([`closed_and_oriented`]): a signed volume that does
+    /// not depend on the origin.
+    pub closed: bool,
 }
 
 impl WeldedMesh {
@@ -78,6 +81,7 @@ impl WeldedMesh {
         Self {
             to_welded,
             representative,
+            closed: closed_and_oriented(&welded),
             triangles: welded,
             report,
         }

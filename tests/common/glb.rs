@@ -24,17 +24,7 @@ pub fn bin_start(glb: &[u8]) -> usize {
 pub fn with_json(glb: &[u8], edit: impl FnOnce(&mut Value)) -> Vec<u8> {
     let mut value = json(glb);
     edit(&mut value);
-    let mut text = serde_json::to_vec(&value).expect("json");
-    text.resize(text.len().next_multiple_of(4), b' ');
-    let rest = &glb[json_end(glb)..];
-    let mut out = Vec::with_capacity(20 + text.len() + rest.len());
-    out.extend_from_slice(&glb[..8]);
-    out.extend_from_slice(&((20 + text.len() + rest.len()) as u32).to_le_bytes());
-    out.extend_from_slice(&(text.len() as u32).to_le_bytes());
-    out.extend_from_slice(b"JSON");
-    out.extend_from_slice(&text);
-    out.extend_from_slice(rest);
-    out
+    assembled(glb, &value, &glb[json_end(glb)..])
 }
 
 /// `glb` with `data` appended to its BIN chunk (4-byte aligned; the buffer's `byteLength`
@@ -51,16 +41,24 @@ pub fn with_bin_appended(glb: &[u8], data: &[u8], edit: impl FnOnce(&mut Value, 
     let mut value = json(glb);
     value["buffers"][0]["byteLength"] = Value::from(bin.len());
     edit(&mut value, offset);
-    let mut text = serde_json::to_vec(&value).expect("json");
+    let mut chunk = Vec::with_capacity(8 + bin.len());
+    chunk.extend_from_slice(&(bin.len() as u32).to_le_bytes());
+    chunk.extend_from_slice(b"BIN\0");
+    chunk.extend_from_slice(&bin);
+    assembled(glb, &value, &chunk)
+}
+
+/// `glb`'s header (its total length rewritten), the JSON chunk of `value` (padded with spaces)
+/// and `rest`, the chunks after it.
+fn assembled(glb: &[u8], value: &Value, rest: &[u8]) -> Vec<u8> {
+    let mut text = serde_json::to_vec(value).expect("json");
     text.resize(text.len().next_multiple_of(4), b' ');
-    let mut out = Vec::with_capacity(28 + text.len() + bin.len());
+    let mut out = Vec::with_capacity(20 + text.len() + rest.len());
     out.extend_from_slice(&glb[..8]);
-    out.extend_from_slice(&((28 + text.len() + bin.len()) as u32).to_le_bytes());
+    out.extend_from_slice(&((20 + text.len() + rest.len()) as u32).to_le_bytes());
     out.extend_from_slice(&(text.len() as u32).to_le_bytes());
     out.extend_from_slice(b"JSON");
     out.extend_from_slice(&text);
-    out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
-    out.extend_from_slice(b"BIN\0");
-    out.extend_from_slice(&bin);
+    out.extend_from_slice(rest);
     out
 }
