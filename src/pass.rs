@@ -377,6 +377,12 @@ fn crossing_at_rest(rest: &[RestBody], bodies: &[PassBody]) -> Result<Vec<[usize
 /// 3322-vertex capsules took over three minutes per frame).
 pub const COLLAPSED: f64 = 1e-6;
 
+/// A body posed larger than this multiple of its rest bounding-box diagonal (a broken
+/// animation scaling a joint by 1e20) takes no part in contacts that frame either: its faces
+/// stretch across the scene, where the exact predicates fall to their slowest arithmetic
+/// (measured: a self-contact frame of CesiumMan with one scale key of 1e20 took 2.4 s).
+pub const STRETCHED: f64 = 1e6;
+
 /// The contact pass of a set of bodies, precomputed once (indices, regions, symbolic
 /// factorizations).
 #[derive(Clone, Debug)]
@@ -806,13 +812,16 @@ impl ContactPass {
         Ok(out)
     }
 
-    /// Whether body `b`, its box `posed` at its positions, is at least [`COLLAPSED`] times its
-    /// rest bounding-box diagonal.
+    /// Whether body `b`, its box `posed` at its positions, is between [`COLLAPSED`] and
+    /// [`STRETCHED`] times its rest bounding-box diagonal.
     fn in_size(&self, b: usize, posed: Option<&Aabb>) -> bool {
         let Some(rest) = self.bodies.get(b).map(|body| body.rest_diagonal) else {
             return false;
         };
-        posed.is_some_and(|x| (x.max - x.min).norm() >= COLLAPSED * rest)
+        posed.is_some_and(|x| {
+            let size = (x.max - x.min).norm();
+            size >= COLLAPSED * rest && size <= STRETCHED * rest
+        })
     }
 
     /// One position set per body, each with the body's vertex count.

@@ -477,23 +477,33 @@ fn keyframed_user_direction_drives_the_contact() {
 }
 
 /// A body posed below a millionth of its rest size (a bone or the rig scaled to 0, as rigs do
-/// to hide a part) takes no part in contacts: both capsules shrunk about a point by 1e-9 at the
-/// end of their press (where they interpenetrate) are returned as they are, finite; at full
-/// size the same frame is in contact.
+/// to hide a part) or above a million times it (a broken animation's scale) takes no part in
+/// contacts: both capsules scaled about a point by 1e-9 or 1e7 at the end of their press
+/// (where they interpenetrate) are returned as they are; at full size the same frame is in
+/// contact, and so it is scaled by 1e-5 or 1e5.
 #[test]
-fn bodies_scaled_to_nothing_are_left_alone() {
+fn bodies_scaled_out_of_measure_are_left_alone() {
     let l = load("capsule_pair", 31);
     let input = l.frame(30);
     let pass = l.pass(object_params(2, &[0.5, 0.5], 0.0), vec![]);
-    assert!(!pass.run(&input).expect("runs").contacts.is_empty());
     let centre = input[0][0];
-    let shrunk: Vec<Vec<Point3<f64>>> = input
-        .iter()
-        .map(|b| b.iter().map(|p| centre + (p - centre) * 1e-9).collect())
-        .collect();
-    let out = pass.run(&shrunk).expect("runs");
-    assert!(out.contacts.is_empty());
-    assert_eq!(out.positions, shrunk);
+    for (scale, resolved) in [
+        (1.0, true),
+        (1e-5, true),
+        (1e5, true),
+        (1e-9, false),
+        (1e7, false),
+    ] {
+        let scaled: Vec<Vec<Point3<f64>>> = input
+            .iter()
+            .map(|b| b.iter().map(|p| centre + (p - centre) * scale).collect())
+            .collect();
+        let out = pass.run(&scaled).expect("runs");
+        assert_eq!(!out.contacts.is_empty(), resolved, "scale {scale}");
+        if !resolved {
+            assert_eq!(out.positions, scaled, "scale {scale}");
+        }
+    }
 }
 
 /// A body whose deformation fails (here a factorization: the sphere sheared a billion-fold

@@ -649,6 +649,12 @@ impl SelfContactPass {
         let clock = Instant::now();
         let posed = bodies.posed(fold.body, &fold.detection);
         let posed = posed.map_err(|e| fail(e.into()))?;
+        if fold
+            .pre
+            .stretched(posed.positions(), posed.bvh().root_box().as_ref())
+        {
+            return Ok(false);
+        }
         let detection = fold.pre.detect_on(&posed, &fold.sets, clock);
         let Some(detection) = detection.map_err(fail)? else {
             return Ok(false);

@@ -4,7 +4,7 @@
 
 use super::FoldError;
 use crate::deform::WorkingRegion;
-use crate::intersect::{FaceSets, Intersections, MeshIndex, PartsUnion, PosedMesh};
+use crate::intersect::{Aabb, FaceSets, Intersections, MeshIndex, PartsUnion, PosedMesh};
 use crate::report::metrics::WindingNumber;
 use crate::selfcontact::crease::CreaseTopology;
 use crate::selfcontact::regions::PairRegions;
@@ -212,6 +212,20 @@ impl FoldPre {
         let size = box_of(&self.sized_vertices);
         // NaN counts as collapsed (no size to resolve a fold at).
         size.is_nan() || size < bound
+    }
+
+    /// Whether the shared region (both regions, when separated) is posed larger than
+    /// [`crate::pass::STRETCHED`] times its rest size (a broken animation scaling a joint by
+    /// 1e20): such a fold is not resolved either (see there). `tree_box`: the box of the
+    /// body's detection tree at `positions`, which holds the region's faces: when it is within
+    /// the bound, so is the region, and nothing else is read.
+    pub fn stretched(&self, positions: &[Point3<f64>], tree_box: Option<&Aabb>) -> bool {
+        let bound = crate::pass::STRETCHED * self.rest_box;
+        if tree_box.is_some_and(|b| (b.max - b.min).norm() <= bound) {
+            return false;
+        }
+        let size = crate::selfcontact::regions::box_diagonal_of(&self.sized_vertices, positions);
+        size > bound
     }
 
     /// Detection with the rest partition: `None` when the fold does not intersect itself at
