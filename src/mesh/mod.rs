@@ -48,7 +48,10 @@ pub struct WeldedMesh {
     pub to_welded: Vec<u32>,
     /// First file vertex of each welded vertex (its representative).
     pub representative: Vec<u32>,
-    /// Triangles in welded indices (same order as the file's triangles).
+    /// Triangles in welded indices, in the file's order, without the faces that repeat an
+    /// earlier face's welded vertices in either winding (a double-sided copy: counted in
+    /// [`TopologyReport::duplicate_faces`], and moved with the face it repeats, whose
+    /// vertices it shares).
     pub triangles: Vec<[u32; 3]>,
     /// Defects found.
     pub report: TopologyReport,
@@ -78,11 +81,12 @@ impl WeldedMesh {
             .map(|t| t.map(|i| to_welded[i as usize]))
             .collect();
         let report = analyse(positions, &representative, &welded);
+        let triangles = without_repeated_faces(welded);
         Self {
             to_welded,
             representative,
-            closed: closed_and_oriented(&welded),
-            triangles: welded,
+            closed: closed_and_oriented(&triangles),
+            triangles,
             report,
         }
     }
@@ -247,6 +251,23 @@ fn weld_points(positions: &[Point3<f64>], tol: f64) -> (Vec<u32>, Vec<u32>) {
         to_welded.push(w);
     }
     (to_welded, representative)
+}
+
+/// `triangles` without the faces whose vertex set an earlier face has (either winding): a
+/// surface made double-sided by a second copy of its faces would otherwise meet itself
+/// everywhere (every face lies on its copy; measured on the bending capsule with its faces
+/// copied: 8 folds that resolved nothing, 4.5 s instead of 0.5 s, and on the capsule pair with
+/// reversed copies 2194 faces turned).
+fn without_repeated_faces(triangles: Vec<[u32; 3]>) -> Vec<[u32; 3]> {
+    let mut seen = std::collections::HashSet::with_capacity(triangles.len());
+    triangles
+        .into_iter()
+        .filter(|t| {
+            let mut key = *t;
+            key.sort_unstable();
+            seen.insert(key)
+        })
+        .collect()
 }
 
 fn analyse(positions: &[Point3<f64>], representative: &[u32], tris: &[[u32; 3]]) -> TopologyReport {

@@ -55,6 +55,21 @@ pub fn committed_bytes(name: &str) -> Vec<u8> {
     std::fs::read(path).expect("committed rig reads")
 }
 
+/// A committed rig's copy with every body made double-sided, as exporters make a two-sided
+/// surface: each face listed a second time, with its winding `reversed` or not.
+pub fn double_sided(name: &str, frames: usize, reversed: bool) -> Loaded {
+    let mut rig = load(name, frames).rig;
+    for body in &mut rig.bodies {
+        let copies: Vec<[u32; 3]> = body
+            .triangles
+            .iter()
+            .map(|&[a, b, c]| if reversed { [a, c, b] } else { [a, b, c] })
+            .collect();
+        body.triangles.extend(copies);
+    }
+    prepare(rig, frames, Method::Lbs)
+}
+
 fn prepare(rig: Rig, frames: usize, method: Method) -> Loaded {
     let pre = Precomputed::new(&rig, method);
     let times = frames::sample_times(&rig, Some(0), Some(frames)).expect("frames");
