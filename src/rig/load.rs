@@ -140,6 +140,7 @@ fn load_impl(file: &Path, bytes: &[u8], folder: Option<&Path>) -> Result<Rig, Ri
     };
     let rest = check_rest_pose(file, &rig)?;
     super::orientation::face_outward(&mut rig, &rest);
+    super::orientation::wind_outward(&mut rig, &rest);
     Ok(rig)
 }
 

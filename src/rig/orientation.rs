@@ -12,8 +12,9 @@
 //! apply to a skinned mesh, whose node transform is ignored: the skin's matrices decide here.
 
 use super::{Body, Pose, Rig};
-use crate::skinning::lbs::blended_matrix;
-use nalgebra::Matrix4;
+use crate::mesh::{signed_volume, WeldedMesh};
+use crate::skinning::lbs::{self, blended_matrix};
+use nalgebra::{Matrix4, Vector3};
 
 /// Reverses the winding and normals of every body that its skin mirrors at `rest` (the rig's
 /// rest pose), with a warning naming it; a warning too for a skin that mirrors only some of a
@@ -49,6 +50,66 @@ pub(super) fn face_outward(rig: &mut Rig, rest: &Pose) {
             body.name, body.mesh
         ));
     }
+}
+
+/// Reverses the winding of every closed body whose surface, posed at `rest` (after
+/// [`face_outward`]), encloses a negative volume: its faces are wound inward in the file (or,
+/// made double-sided, its inward copy comes first and is the one welding keeps:
+/// [`WeldedMesh::triangles`]). Its normals are negated too where they agreed with the inward
+/// winding, and kept where they already pointed out. A warning names each body. An open
+/// body is not judged (its signed volume depends on the origin).
+pub(super) fn wind_outward(rig: &mut Rig, rest: &Pose) {
+    for body in &mut rig.bodies {
+        let mats = rest.skin_matrices(&rig.skins[body.skin]);
+        let posed = lbs::skin(body, &mats);
+        let welded = WeldedMesh::weld(&body.positions, &body.triangles);
+        let positions = welded.gather(&posed.positions);
+        let volume = signed_volume(&positions, &welded.triangles);
+        if !welded.closed || volume >= 0.0 || volume.is_nan() {
+            continue;
+        }
+        for t in &mut body.triangles {
+            t.swap(1, 2);
+        }
+        // Judged on the welded faces (one copy of a double-sided surface), still inward.
+        let normals = welded.gather(&posed.normals);
+        let inward_normals = normals_agreement(&positions, &normals, &welded.triangles) > 0.0;
+        if inward_normals {
+            for n in &mut body.normals {
+                *n = -*n;
+            }
+        }
+        let normals = if inward_normals {
+            "its triangles' winding and normals reversed"
+        } else {
+            "its triangles' winding reversed (its normals already point out)"
+        };
+        rig.warnings.push(format!(
+            "body '{}' (meshes[{}]): its closed surface is wound inward (negative volume at \
+             rest): {normals}, so that it faces out",
+            body.name, body.mesh
+        ));
+    }
+}
+
+/// How far the vertex normals `normals` agree with the winding of `triangles` at
+/// `positions`: the sum over faces of each face's area vector dotted with its corners'
+/// normals (positive when they point the way the faces wind).
+fn normals_agreement(
+    positions: &[nalgebra::Point3<f64>],
+    normals: &[Vector3<f64>],
+    triangles: &[[u32; 3]],
+) -> f64 {
+    triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|v| positions[v as usize]);
+            let area = (b - a).cross(&(c - a));
+            t.iter()
+                .map(|&v| area.dot(&normals[v as usize]))
+                .sum::<f64>()
+        })
+        .sum()
 }
 
 /// How many of `body`'s vertices are posed at rest by a blended linear map (`Σ w_j A_j`,

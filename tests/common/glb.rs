@@ -62,3 +62,104 @@ fn assembled(glb: &[u8], value: &Value, rest: &[u8]) -> Vec<u8> {
     out.extend_from_slice(rest);
     out
 }
+
+/// `glb` with every mesh primitive's triangles (read from its index accessor, `u8`, `u16`
+/// or `u32`, tightly packed) replaced by `edit` of them, as `u32` indices.
+pub fn with_triangles(glb: &[u8], edit: impl Fn(&[[u32; 3]]) -> Vec<[u32; 3]>) -> Vec<u8> {
+    let ids = primitive_accessors(glb, |p| p["indices"].as_u64());
+    with_accessors_rewritten(glb, &ids, |acc, bytes| {
+        let size = match acc["componentType"].as_u64() {
+            Some(5121) => 1,
+            Some(5123) => 2,
+            _ => 4,
+        };
+        let indices: Vec<u32> = (0..acc["count"].as_u64().expect("a count") as usize)
+            .map(|i| {
+                let b = &bytes[i * size..(i + 1) * size];
+                b.iter()
+                    .rev()
+                    .fold(0u32, |x, &byte| x << 8 | u32::from(byte))
+            })
+            .collect();
+        let triangles: Vec<[u32; 3]> = indices.chunks(3).map(|c| [c[0], c[1], c[2]]).collect();
+        let edited = edit(&triangles);
+        let data = edited
+            .iter()
+            .flatten()
+            .flat_map(|i| i.to_le_bytes())
+            .collect();
+        let accessor = serde_json::json!({
+            "componentType": 5125,
+            "count": edited.len() * 3,
+            "type": "SCALAR",
+        });
+        (data, accessor)
+    })
+}
+
+/// `glb` with every mesh primitive's normals (`f32` VEC3, tightly packed) negated.
+pub fn with_normals_negated(glb: &[u8]) -> Vec<u8> {
+    let ids = primitive_accessors(glb, |p| p["attributes"]["NORMAL"].as_u64());
+    with_accessors_rewritten(glb, &ids, |acc, bytes| {
+        let count = acc["count"].as_u64().expect("a count") as usize;
+        let data = bytes[..12 * count]
+            .chunks(4)
+            .flat_map(|b| (-f32::from_le_bytes(b.try_into().expect("4 bytes"))).to_le_bytes())
+            .collect();
+        let accessor = serde_json::json!({
+            "componentType": 5126,
+            "count": count,
+            "type": "VEC3",
+        });
+        (data, accessor)
+    })
+}
+
+/// The accessors that `pick` gives of the mesh primitives of `glb`, sorted, once each.
+fn primitive_accessors(glb: &[u8], pick: impl Fn(&Value) -> Option<u64>) -> Vec<usize> {
+    let value = json(glb);
+    let mut ids: Vec<usize> = value["meshes"]
+        .as_array()
+        .expect("meshes")
+        .iter()
+        .flat_map(|m| m["primitives"].as_array().expect("primitives").iter())
+        .filter_map(|p| pick(p).map(|a| a as usize))
+        .collect();
+    ids.sort_unstable();
+    ids.dedup();
+    ids
+}
+
+/// `glb` with each accessor of `ids` replaced: `rewrite(accessor, bytes)`, given the
+/// accessor's JSON and the BIN chunk from its first byte, returns the new data (appended to
+/// the BIN chunk, in a new buffer view) and the new accessor's JSON (its view set here).
+fn with_accessors_rewritten(
+    glb: &[u8],
+    ids: &[usize],
+    rewrite: impl Fn(&Value, &[u8]) -> (Vec<u8>, Value),
+) -> Vec<u8> {
+    let value = json(glb);
+    let bin = &glb[bin_start(glb)..];
+    let mut data = Vec::new();
+    let mut placed = Vec::new();
+    for &a in ids {
+        let acc = &value["accessors"][a];
+        let view = &value["bufferViews"][acc["bufferView"].as_u64().expect("a view") as usize];
+        let offset = |v: &Value| v["byteOffset"].as_u64().unwrap_or(0) as usize;
+        let (bytes, accessor) = rewrite(acc, &bin[offset(view) + offset(acc)..]);
+        placed.push((a, data.len(), bytes.len(), accessor));
+        data.extend(bytes);
+    }
+    with_bin_appended(glb, &data, |json, offset| {
+        for (a, at, length, mut accessor) in placed {
+            let views = json["bufferViews"].as_array_mut().expect("views");
+            views.push(serde_json::json!({
+                "buffer": 0,
+                "byteOffset": offset + at,
+                "byteLength": length,
+            }));
+            accessor["bufferView"] = Value::from(views.len() - 1);
+            json["accessors"][a] = accessor;
+        }
+    })
+}
