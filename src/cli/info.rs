@@ -676,6 +676,9 @@ pub fn run(a: &Args) -> CliResult {
                 "    problems: {} boundary edges, {} non-manifold edges, {} inconsistently oriented edges, {} degenerate faces, {} duplicate faces, {} isolated vertices",
                 t.boundary_edges, t.non_manifold_edges, t.inconsistent_edges, t.degenerate_faces, t.duplicate_faces, t.isolated_vertices
             );
+            if t.duplicate_faces > 0 {
+                println!("    (a face repeating another's vertices, as a double-sided copy does, is left out of the contact surface)");
+            }
         }
     }
     for a in &info.animations {
