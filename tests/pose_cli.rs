@@ -855,6 +855,7 @@ fn self_contact_resolves_the_bending_capsule_and_does_not_depend_on_threads() {
     assert_eq!(no_self_summary["fold_ms"], Value::Null);
     let (mut fold_frames, mut penetrating_frames) = (0, 0);
     let (mut before_total, mut after_total) = (0, 0);
+    let mut crease_pairs = [0, 0];
     for i in 0..SELF_FRAMES {
         let name = format!("frame_{i:04}.obj");
         same_bytes(&a, &b, &name);
@@ -893,6 +894,11 @@ fn self_contact_resolves_the_bending_capsule_and_does_not_depend_on_threads() {
                     assert!(f[key].as_f64().expect(key).is_finite(), "{key}");
                 }
                 assert_eq!(f["unbalanced"], false, "the capsule's folds are balanced");
+                let pairs = f["crease_pairs"].as_u64().expect("crease_pairs");
+                let unseparated = f["crease_unseparated"].as_u64().expect("unseparated");
+                assert!(unseparated <= pairs, "{name}: {unseparated} of {pairs}");
+                crease_pairs[0] += pairs;
+                crease_pairs[1] += unseparated;
                 for key in [
                     "detection",
                     "crease",
@@ -930,6 +936,13 @@ fn self_contact_resolves_the_bending_capsule_and_does_not_depend_on_threads() {
     );
     assert_eq!(summary["fold_frames"], fold_frames);
     assert_eq!(summary["folds"], serde_json::json!(["capsule/lower-upper"]));
+    // The summary's crease pairs are the folds' (a fold's cut separates nearly all of its
+    // crossing pairs: a later sweep's pairs cross by a fraction of an edge on one contact
+    // surface, and a few lie on one side).
+    println!("crease pairs {crease_pairs:?}");
+    assert_eq!(summary["crease_pairs"], crease_pairs[0]);
+    assert_eq!(summary["crease_pairs_unseparated"], crease_pairs[1]);
+    assert!(crease_pairs[0] > 0 && crease_pairs[1] * 100 < crease_pairs[0]);
     for key in [
         "detection",
         "crease",

@@ -302,6 +302,8 @@ pub struct FoldDiagnostics {
     /// Crossing face pairs left on one side of the crease cut (`PIPELINE.md`: every one
     /// should straddle it; `FoldOutput::unseparated`).
     pub crease_unseparated: usize,
+    /// The crossing face pairs the cut should separate (`FoldOutput::crossing`).
+    pub crease_pairs: usize,
     /// The common bulge height (0 on an open mesh).
     pub bulge_height: f64,
     /// The largest bulge displacement over its band's width (`FoldOutput::bulge_steepness`;
@@ -458,6 +460,7 @@ fn fold_diagnostics(s: &SelfPassOutput) -> Vec<FoldDiagnostics> {
                 crease_cut: o.crease.value,
                 crease_stray: o.crease.stray,
                 crease_unseparated: o.unseparated,
+                crease_pairs: o.crossing,
                 bulge_height: o.bulge_height,
                 bulge_steepness: o.bulge_steepness,
                 unbalanced: o.unbalanced,

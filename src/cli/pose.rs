@@ -190,6 +190,13 @@ struct Summary {
     /// Vertices whose bulge the bulge guard scaled back so that it does not enter the other
     /// part of the fold, summed over the folds and frames.
     bulges_guarded: usize,
+    /// The crossing face pairs the folds' crease cuts should separate, summed over the folds
+    /// and frames (separated regions have no cut and count none).
+    crease_pairs: usize,
+    /// Of those, the pairs a cut left with both faces on one side (`PIPELINE.md`'s check of
+    /// the cut: every crossing pair straddles it); such an intersection lies within one
+    /// truncated part, which the fold does not resolve.
+    crease_pairs_unseparated: usize,
     /// The most sweeps over the folds a frame took (`[self_contact] passes`, and more up to
     /// `max_passes` while a fold's shared region still penetrates); 0 without the pass.
     sweeps_max: usize,
@@ -283,6 +290,8 @@ struct FrameStats {
     folds_failed: Vec<FailedFold>,
     vertices_guarded: usize,
     bulges_guarded: usize,
+    /// Crossing face pairs of the folds' cuts, and those a cut left on one side.
+    crease_pairs: [usize; 2],
     sweeps: usize,
     /// `--metrics`: the frame measured, with its positions.
     measured: Option<Measured>,
@@ -488,6 +497,8 @@ fn summarize(
         }),
         vertices_guarded: stats.iter().map(|s| s.vertices_guarded).sum(),
         bulges_guarded: stats.iter().map(|s| s.bulges_guarded).sum(),
+        crease_pairs: stats.iter().map(|s| s.crease_pairs[0]).sum(),
+        crease_pairs_unseparated: stats.iter().map(|s| s.crease_pairs[1]).sum(),
         sweeps_max: stats.iter().map(|s| s.sweeps).max().unwrap_or(0),
         sweeps_planned: self_run.map_or(0, |s| s.pass.passes()),
         self_contact_ms: self_run.map(|_| median(self_walls)),
@@ -746,6 +757,12 @@ fn print_self_contact(s: &Summary) {
                 s.bulges_guarded
             );
         }
+        if s.crease_pairs_unseparated > 0 {
+            println!(
+                "self-contact: {} of the {} crossing face pair(s) of the crease cuts left on one side of their cut (summed over the folds), where the fold does not resolve them",
+                s.crease_pairs_unseparated, s.crease_pairs
+            );
+        }
         if s.sweeps_max > s.sweeps_planned {
             println!(
                 "self-contact: up to {} sweeps over the folds in a frame ({} planned, more while a fold still penetrated)",
@@ -849,6 +866,7 @@ fn compute_unchecked(
             folds_failed: Vec::new(),
             vertices_guarded: 0,
             bulges_guarded: 0,
+            crease_pairs: [0, 0],
             sweeps: 0,
             measured: measured(job, i, &frame, None),
         };
@@ -880,6 +898,11 @@ fn compute_unchecked(
         folds_failed: so.map_or(Vec::new(), |s| s.failed.clone()),
         vertices_guarded: so.map_or(0, |s| s.guarded),
         bulges_guarded: so.map_or(0, |s| s.bulge_guarded),
+        crease_pairs: so.map_or([0, 0], |s| {
+            s.folds.iter().fold([0, 0], |[c, u], f| {
+                [c + f.output.crossing, u + f.output.unseparated]
+            })
+        }),
         sweeps: so.map_or(0, |s| s.sweeps),
         measured: measured(job, i, &cf.input, Some(&cf.positions)),
     };

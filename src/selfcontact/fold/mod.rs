@@ -131,6 +131,9 @@ pub struct FoldOutput {
     /// both faces on one side of it (0 when every pair straddles the cut, as it should; 0 for
     /// separated regions, which have no cut).
     pub unseparated: usize,
+    /// The detection's crossing face pairs that the crease cut should separate (0 for
+    /// separated regions): what `unseparated` counts among.
+    pub crossing: usize,
     /// The contact between the truncated regions.
     pub contact: Contact,
     /// `σ` per mesh vertex (0 outside `W1 ∪ W2`).
@@ -295,6 +298,11 @@ pub fn resolve_detected_in(
         positions: blended.positions,
         crease,
         unseparated,
+        crossing: if separated {
+            0
+        } else {
+            detection.face_pairs.len()
+        },
         contact,
         sigma,
         stats: [s1.stats, s2.stats],
