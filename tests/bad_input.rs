@@ -96,7 +96,11 @@ fn load_json(v: &Value) -> Result<rig::Rig, RigError> {
 }
 
 fn fixed_doc() -> Value {
-    let mut d = doc(&Layout::valid());
+    fixed_doc_of(&Layout::valid())
+}
+
+fn fixed_doc_of(layout: &Layout) -> Value {
+    let mut d = doc(layout);
     // accessors[6] holds the times: the sampler must read input 6, output 7.
     d["animations"][0]["samplers"][0] = json!({"input": 6, "output": 7});
     d["accessors"][6] = {
@@ -537,6 +541,43 @@ fn transforms_that_overflow_when_composed_are_an_error() {
     assert!(e.to_string().contains("nodes["), "{e}");
     // Ten ancestors compose to 1e300: finite, loaded.
     assert!(load_json(&chain(10)).is_ok());
+}
+
+/// A node matrix or an inverse bind matrix whose last row is not `[0, 0, 0, 1]` (projective,
+/// invalid in glTF; the skinning divided by its homogeneous coordinate) is read as
+/// its affine part, with one warning per kind naming the first: the rig poses exactly as with
+/// the row fixed.
+#[test]
+fn matrices_that_are_not_affine_use_their_affine_part_with_a_warning() {
+    let mut valid = fixed_doc();
+    // The root joint as a matrix (column-major): a translation along x.
+    valid["nodes"][1]["matrix"] = json!([1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0.25, 0, 0, 1]);
+    let mut layout = Layout::valid();
+    // The first inverse bind matrix's m[3][3] (float 15 of the matrix at byte 152) set to 0.
+    layout.bytes[212..216].copy_from_slice(&0f32.to_le_bytes());
+    let mut broken = fixed_doc_of(&layout);
+    broken["nodes"][1]["matrix"] = json!([1, 0, 0, 0.5, 0, 1, 0, 0, 0, 0, 1, 0, 0.25, 0, 0, 0]);
+    let posed = |rig: &rig::Rig| {
+        let pose = rig.pose_at(Some(0), 1.0);
+        let mats = pose.skin_matrices(&rig.skins[0]);
+        contact_skin::skinning::lbs::skin(&rig.bodies[0], &mats).positions
+    };
+    let good = load_json(&valid).expect("valid rig");
+    assert!(good.warnings.is_empty(), "{:?}", good.warnings);
+    let fixed = load_json(&broken).expect("loaded with its affine parts");
+    let warned: Vec<&String> = fixed
+        .warnings
+        .iter()
+        .filter(|w| w.contains("not affine"))
+        .collect();
+    assert_eq!(warned.len(), 2, "{:?}", fixed.warnings);
+    assert!(warned[0].contains("1 matrices") && warned[0].contains("nodes[1]"));
+    assert!(warned[1].contains("inverseBindMatrices of skins[0][0]"));
+    assert_eq!(posed(&fixed), posed(&good));
+    assert!(posed(&good)
+        .iter()
+        .flat_map(|p| p.iter())
+        .all(|c| c.is_finite()));
 }
 
 /// A glTF of another major version is refused, not read as 2.0 (found by fuzzing).

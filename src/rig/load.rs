@@ -124,8 +124,8 @@ fn load_impl(file: &Path, bytes: &[u8], folder: Option<&Path>) -> Result<Rig, Ri
         warnings.push(w);
     }
     warnings.extend(glb_chunk_warning(bytes));
-    let (nodes, node_order) = read_nodes(file, doc)?;
-    let skins = read_skins(&src, doc)?;
+    let (nodes, node_order) = read_nodes(file, doc, &mut warnings)?;
+    let skins = read_skins(&src, doc, &mut warnings)?;
     let (bodies, extra_attributes) = read_bodies(&src, doc, &skins, &mut warnings)?;
     let animations = read_animations(&src, doc, &mut warnings)?;
     let mut rig = Rig {
@@ -472,7 +472,11 @@ fn percent_decode(s: &str) -> Result<String, String> {
 // ---------------------------------------------------------------------------------------------
 // Nodes
 
-fn read_local(file: &Path, node: &gltf::Node) -> Result<LocalTransform, RigError> {
+fn read_local(
+    file: &Path,
+    node: &gltf::Node,
+    not_affine: &mut NotAffine,
+) -> Result<LocalTransform, RigError> {
     let element = format!("nodes[{}]", node.index());
     match node.transform() {
         gltf::scene::Transform::Matrix { matrix } => {
@@ -480,7 +484,7 @@ fn read_local(file: &Path, node: &gltf::Node) -> Result<LocalTransform, RigError
             if m.iter().any(|x| !x.is_finite()) {
                 return Err(invalid(file, element, "matrix has a non-finite entry"));
             }
-            Ok(LocalTransform::Matrix(m))
+            Ok(LocalTransform::Matrix(not_affine.fix(m, || element)))
         }
         gltf::scene::Transform::Decomposed {
             translation,
@@ -506,17 +510,57 @@ fn read_local(file: &Path, node: &gltf::Node) -> Result<LocalTransform, RigError
     }
 }
 
+/// The matrices whose last row is not `[0, 0, 0, 1]`, as glTF requires of a node's matrix
+/// and an inverse bind matrix (an affine transform): their affine part is used (with a
+/// projective row the skinning divided each position by its homogeneous coordinate; the
+/// fuzzing corpus sets `m[15] = 0`), and one warning names the first.
+#[derive(Default)]
+struct NotAffine {
+    count: usize,
+    first: Option<(String, [f64; 4])>,
+}
+
+impl NotAffine {
+    /// `m` with its last row `[0, 0, 0, 1]`, counted when it was not (`element` names it).
+    fn fix(&mut self, mut m: Matrix4<f64>, element: impl FnOnce() -> String) -> Matrix4<f64> {
+        let row = [m[(3, 0)], m[(3, 1)], m[(3, 2)], m[(3, 3)]];
+        if row != [0.0, 0.0, 0.0, 1.0] {
+            self.count += 1;
+            self.first.get_or_insert_with(|| (element(), row));
+            m.set_row(3, &nalgebra::RowVector4::new(0.0, 0.0, 0.0, 1.0));
+        }
+        m
+    }
+
+    /// The warning, if any matrix was fixed.
+    fn warn(self, warnings: &mut Vec<String>) {
+        if let Some((element, row)) = self.first {
+            warnings.push(format!(
+                "{} matrices whose last row is not [0, 0, 0, 1] (not affine; the first: \
+                 {element}, {row:?}): their affine part is used",
+                self.count
+            ));
+        }
+    }
+}
+
 /// Reads the hierarchy and checks it is a forest (one parent per node, no cycle).
-fn read_nodes(file: &Path, doc: &gltf::Document) -> Result<(Vec<Node>, Vec<usize>), RigError> {
+fn read_nodes(
+    file: &Path,
+    doc: &gltf::Document,
+    warnings: &mut Vec<String>,
+) -> Result<(Vec<Node>, Vec<usize>), RigError> {
     let mut nodes = Vec::new();
+    let mut not_affine = NotAffine::default();
     for node in doc.nodes() {
         nodes.push(Node {
             name: node.name().map(str::to_string),
             parent: None,
             children: node.children().map(|c| c.index()).collect(),
-            rest: read_local(file, &node)?,
+            rest: read_local(file, &node, &mut not_affine)?,
         });
     }
+    not_affine.warn(warnings);
     for n in 0..nodes.len() {
         for k in 0..nodes[n].children.len() {
             let c = nodes[n].children[k];
@@ -553,8 +597,13 @@ fn read_nodes(file: &Path, doc: &gltf::Document) -> Result<(Vec<Node>, Vec<usize
 // ---------------------------------------------------------------------------------------------
 // Skins
 
-fn read_skins(src: &Source, doc: &gltf::Document) -> Result<Vec<Skin>, RigError> {
+fn read_skins(
+    src: &Source,
+    doc: &gltf::Document,
+    warnings: &mut Vec<String>,
+) -> Result<Vec<Skin>, RigError> {
     let mut skins = Vec::new();
+    let mut not_affine = NotAffine::default();
     for skin in doc.skins() {
         let joints: Vec<usize> = skin.joints().map(|n| n.index()).collect();
         if joints.is_empty() {
@@ -591,7 +640,10 @@ fn read_skins(src: &Source, doc: &gltf::Document) -> Result<Vec<Skin>, RigError>
                     return Err(invalid(src.file, role, "non-finite matrix entry"));
                 }
                 (0..joints.len())
-                    .map(|j| Matrix4::from_column_slice(v.element(j)))
+                    .map(|j| {
+                        let m = Matrix4::from_column_slice(v.element(j));
+                        not_affine.fix(m, || format!("{role}[{j}]"))
+                    })
                     .collect()
             }
         };
@@ -601,6 +653,7 @@ fn read_skins(src: &Source, doc: &gltf::Document) -> Result<Vec<Skin>, RigError>
             inverse_bind,
         });
     }
+    not_affine.warn(warnings);
     Ok(skins)
 }
 
