@@ -2001,7 +2001,7 @@ fn a_fold_scaled_out_of_measure_is_left_alone() {
 /// reversed, as exporters make a two-sided surface) folds exactly as the body: its welded
 /// surface keeps one copy of each face, which moves the other's vertices too. Before, every
 /// face lay on its copy (the capsule with its faces copied: 8 folds over 11 frames that
-/// resolved nothing, 4.5 s instead of 0.5 s; with reversed copies no fold at all).
+/// resolved nothing, 3.5 s instead of 0.5 s; with reversed copies no fold at all).
 #[test]
 fn a_double_sided_body_folds_as_the_body() {
     let l = load("bending_capsule", 31);

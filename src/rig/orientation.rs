@@ -10,6 +10,10 @@
 //! when posed (the cofactor that carries normals to the pose turns them with the winding).
 //! The glTF rule that the determinant of the *node's* transform decides the winding does not
 //! apply to a skinned mesh, whose node transform is ignored: the skin's matrices decide here.
+//!
+//! Then a closed body whose surface, posed at rest, still encloses a negative volume is wound
+//! inward in the file ([`wind_outward`]): its winding is reversed too (found with the capsule
+//! pair and the bending capsule so written: the passes resolved nothing, as for a mirror).
 
 use super::{Body, Pose, Rig};
 use crate::mesh::{signed_volume, WeldedMesh};
