@@ -584,6 +584,49 @@ fn bodies_wound_inward_are_wound_outward_at_load() {
     }
 }
 
+/// A prop without a skin (the ball, its mesh node moved under its joint and its skin
+/// removed) is a rigid body posed by its node's world transform, as glTF poses an unskinned
+/// mesh. It comes after the skinned bodies (a configuration's body indices keep their
+/// meaning), and the fingertips press it exactly as the skinned ball: every body's positions
+/// the same to the bit in every third frame. Before, such a mesh was left out with a warning
+/// and nothing touched it.
+#[test]
+fn an_unskinned_prop_is_a_rigid_body_in_contact() {
+    let l = load("fingertips_ball", 31);
+    let glb = glb::with_json(&committed_bytes("fingertips_ball"), |json| {
+        let ball = 5;
+        assert_eq!(json["nodes"][ball]["name"], "ball");
+        json["nodes"][ball]
+            .as_object_mut()
+            .expect("a node")
+            .remove("skin");
+        json["nodes"][1]["children"] = serde_json::json!([ball]);
+        let roots = json["scenes"][0]["nodes"].as_array_mut().expect("roots");
+        roots.retain(|n| n != ball);
+    });
+    let d = load_bytes("fingertips_ball", &glb, 31);
+    let names: Vec<&str> = d.rig.bodies.iter().map(|b| b.name.as_str()).collect();
+    assert_eq!(names, ["thumb", "index", "middle", "ball"]);
+    let warned = d.rig.warnings.iter().any(|w| w.contains("posed rigidly"));
+    assert!(warned, "{:?}", d.rig.warnings);
+    let pass = l.pass(object_params(4, &[0.5], 0.0), vec![]);
+    let d_pass = d.pass(object_params(4, &[0.5], 0.0), vec![]);
+    let order = |mut bodies: Vec<Vec<Point3<f64>>>| {
+        bodies.rotate_left(1);
+        bodies
+    };
+    let mut contacts = 0;
+    for f in (0..31).step_by(3) {
+        let input = l.frame(f);
+        assert_eq!(order(input.clone()), d.frame(f), "frame {f}: the input");
+        let out = pass.run(&input).expect("runs");
+        contacts += out.contacts.len();
+        let d_out = d_pass.run(&d.frame(f)).expect("runs");
+        assert_eq!(order(out.positions), d_out.positions, "frame {f}");
+    }
+    assert!(contacts >= 10, "{contacts} contacts");
+}
+
 /// A body whose deformation fails (here a factorization: the sphere sheared a billion-fold
 /// along `x`, as a fuzzed inverse bind matrix made it, leaves its heat matrix not positive
 /// definite in round-off) is left as it came in and reported once per frame, while the other

@@ -125,8 +125,8 @@ fn load_impl(file: &Path, bytes: &[u8], folder: Option<&Path>) -> Result<Rig, Ri
     }
     warnings.extend(glb_chunk_warning(bytes));
     let (nodes, node_order) = read_nodes(file, doc, &mut warnings)?;
-    let skins = read_skins(&src, doc, &mut warnings)?;
-    let (bodies, extra_attributes) = read_bodies(&src, doc, &skins, &mut warnings)?;
+    let mut skins = read_skins(&src, doc, &mut warnings)?;
+    let (bodies, extra_attributes) = read_bodies(&src, doc, &mut skins, &mut warnings)?;
     let animations = read_animations(&src, doc, &mut warnings)?;
     let mut rig = Rig {
         source: file.to_path_buf(),
@@ -663,68 +663,111 @@ fn read_skins(
 /// Custom attributes of one body or primitive: `(name with its underscore, values)`.
 type Extras = Vec<(String, Vec<f64>)>;
 
+/// The bodies: every skinned mesh instance in node order, then every unskinned one in node
+/// order (a prop, often parented to a joint), which glTF poses by its node's world
+/// transform: a rigid body, given a skin of its own appended to `skins` (its node as the one
+/// joint, an identity inverse bind matrix, weight 1 on every vertex). Placed after the
+/// skinned bodies, so that a configuration naming bodies by index keeps its meaning.
 fn read_bodies(
     src: &Source,
     doc: &gltf::Document,
-    skins: &[Skin],
+    skins: &mut Vec<Skin>,
     warnings: &mut Vec<String>,
 ) -> Result<(Vec<Body>, Vec<Extras>), RigError> {
     let mut bodies = Vec::new();
     let mut extras = Vec::new();
-    for node in doc.nodes() {
-        let Some(mesh) = node.mesh() else { continue };
-        let Some(skin) = node.skin() else {
-            warnings.push(format!(
-                "nodes[{}] carries meshes[{}] without a skin: not posed",
-                node.index(),
-                mesh.index()
-            ));
-            continue;
-        };
-        let name = node
-            .name()
-            .or(mesh.name())
-            .map_or_else(|| format!("body{}", bodies.len()), str::to_string);
-        let mut body = Body {
-            name,
-            node: node.index(),
-            mesh: mesh.index(),
-            skin: skin.index(),
-            positions: Vec::new(),
-            normals: Vec::new(),
-            weights: SkinWeights::with_capacity(0),
-            triangles: Vec::new(),
-            primitives: Vec::new(),
-        };
-        let mut has_normals = true;
-        let mut primitive_extras = Vec::new();
-        for prim in mesh.primitives() {
-            let read = read_primitive(
+    for rigid in [false, true] {
+        for node in doc.nodes() {
+            let Some(mesh) = node.mesh() else { continue };
+            let skin = match (node.skin(), rigid) {
+                (Some(skin), false) => skin.index(),
+                (None, true) => {
+                    skins.push(Skin {
+                        name: Some(format!("nodes[{}] (rigid)", node.index())),
+                        joints: vec![node.index()],
+                        inverse_bind: vec![Matrix4::identity()],
+                    });
+                    skins.len() - 1
+                }
+                _ => continue,
+            };
+            let read = read_body(
                 src,
                 doc,
-                &prim,
-                mesh.index(),
-                &skins[skin.index()],
-                &mut body,
+                &node,
+                &mesh,
+                (skin, &skins[skin]),
+                rigid,
                 warnings,
             )?;
-            has_normals &= read.has_normals;
-            primitive_extras.extend(read.extras);
+            let Some((mut body, extra)) = read else {
+                continue;
+            };
+            if rigid {
+                warnings.push(format!(
+                    "nodes[{}] carries meshes[{}] without a skin: posed rigidly by its node",
+                    node.index(),
+                    mesh.index()
+                ));
+            }
+            if body.name.is_empty() {
+                body.name = format!("body{}", bodies.len());
+            }
+            bodies.push(body);
+            extras.push(extra);
         }
-        if body.positions.is_empty() {
-            warnings.push(format!(
-                "meshes[{}] has no triangle primitive: skipped",
-                mesh.index()
-            ));
-            continue;
-        }
-        if !has_normals {
-            body.normals = area_weighted_normals(&body.positions, &body.triangles);
-        }
-        extras.push(merge_extras(primitive_extras, mesh.index(), warnings));
-        bodies.push(body);
     }
     Ok((bodies, extras))
+}
+
+/// One body: the triangle primitives of `mesh` instanced by `node`, skinned by `skin` (its
+/// index and itself; `rigid`: every vertex on its one joint), with its custom attributes.
+/// `None` (with a warning) when the mesh has no triangle primitive.
+fn read_body(
+    src: &Source,
+    doc: &gltf::Document,
+    node: &gltf::Node,
+    mesh: &gltf::Mesh,
+    (skin_index, skin): (usize, &Skin),
+    rigid: bool,
+    warnings: &mut Vec<String>,
+) -> Result<Option<(Body, Extras)>, RigError> {
+    let name = node.name().or(mesh.name()).unwrap_or_default().to_string();
+    let mut body = Body {
+        name,
+        node: node.index(),
+        mesh: mesh.index(),
+        skin: skin_index,
+        positions: Vec::new(),
+        normals: Vec::new(),
+        weights: SkinWeights::with_capacity(0),
+        triangles: Vec::new(),
+        primitives: Vec::new(),
+    };
+    let mut has_normals = true;
+    let mut primitive_extras = Vec::new();
+    for prim in mesh.primitives() {
+        let at = PrimitiveAt {
+            mesh: mesh.index(),
+            skin,
+            rigid,
+        };
+        let read = read_primitive(src, doc, &prim, &at, &mut body, warnings)?;
+        has_normals &= read.has_normals;
+        primitive_extras.extend(read.extras);
+    }
+    if body.positions.is_empty() {
+        warnings.push(format!(
+            "meshes[{}] has no triangle primitive: skipped",
+            mesh.index()
+        ));
+        return Ok(None);
+    }
+    if !has_normals {
+        body.normals = area_weighted_normals(&body.positions, &body.triangles);
+    }
+    let extras = merge_extras(primitive_extras, mesh.index(), warnings);
+    Ok(Some((body, extras)))
 }
 
 /// Concatenates the custom attributes of a body's triangle primitives (one list per
@@ -799,17 +842,25 @@ struct PrimitiveRead {
     extras: Option<Extras>,
 }
 
+/// Where a primitive is read: its mesh, the skin of the body it joins and whether that body
+/// is rigid (an unskinned mesh: every vertex on the skin's one joint).
+struct PrimitiveAt<'a> {
+    mesh: usize,
+    skin: &'a Skin,
+    rigid: bool,
+}
+
 /// Appends one primitive to `body`.
 fn read_primitive(
     src: &Source,
     doc: &gltf::Document,
     prim: &gltf::Primitive,
-    mesh: usize,
-    skin: &Skin,
+    place: &PrimitiveAt,
     body: &mut Body,
     warnings: &mut Vec<String>,
 ) -> Result<PrimitiveRead, RigError> {
     use gltf::mesh::Mode;
+    let mesh = place.mesh;
     let at = format!("meshes[{mesh}].primitives[{}]", prim.index());
     let mode = prim.mode();
     if !matches!(
@@ -825,7 +876,11 @@ fn read_primitive(
     let pos = read_positions(src, doc, prim, &at, body.positions.len())?;
     let n = pos.count();
     let normals = read_normals(src, doc, prim, &at, n)?;
-    let weights = read_weights(src, doc, prim, &at, n, skin, warnings)?;
+    let weights = if place.rigid {
+        SkinWeights::rigid(n)
+    } else {
+        read_weights(src, doc, prim, &at, n, place.skin, warnings)?
+    };
     let extras = read_extras(src, doc, prim, &at, n, warnings)?;
     let indices = match prim.indices() {
         Some(acc) => {

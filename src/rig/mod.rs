@@ -96,7 +96,8 @@ pub struct Rig {
     pub node_order: Vec<usize>,
     /// Skins.
     pub skins: Vec<Skin>,
-    /// Skinned mesh instances, in node order.
+    /// Skinned mesh instances, in node order, then the unskinned ones (rigid bodies posed by
+    /// their node, each with a skin of its own at the end of `skins`), in node order.
     pub bodies: Vec<Body>,
     /// Animations.
     pub animations: Vec<Animation>,

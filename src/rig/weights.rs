@@ -25,6 +25,15 @@ impl SkinWeights {
         }
     }
 
+    /// `n` vertices each bound to joint 0 with weight 1 (a rigid body).
+    pub fn rigid(n: usize) -> Self {
+        Self {
+            offsets: (0..=n as u32).collect(),
+            joints: vec![0; n],
+            weights: vec![1.0; n],
+        }
+    }
+
     /// Number of vertices.
     pub fn len(&self) -> usize {
         self.offsets.len().saturating_sub(1)
