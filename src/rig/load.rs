@@ -679,31 +679,18 @@ fn read_bodies(
     for rigid in [false, true] {
         for node in doc.nodes() {
             let Some(mesh) = node.mesh() else { continue };
-            let skin = match (node.skin(), rigid) {
-                (Some(skin), false) => skin.index(),
-                (None, true) => {
-                    skins.push(Skin {
-                        name: Some(format!("nodes[{}] (rigid)", node.index())),
-                        joints: vec![node.index()],
-                        inverse_bind: vec![Matrix4::identity()],
-                    });
-                    skins.len() - 1
-                }
+            let (index, own) = match (node.skin(), rigid) {
+                (Some(skin), false) => (skin.index(), None),
+                (None, true) => (skins.len(), Some(rigid_skin(&node))),
                 _ => continue,
             };
-            let read = read_body(
-                src,
-                doc,
-                &node,
-                &mesh,
-                (skin, &skins[skin]),
-                rigid,
-                warnings,
-            )?;
+            let skin = own.as_ref().unwrap_or_else(|| &skins[index]);
+            let read = read_body(src, doc, &node, &mesh, (index, skin), rigid, warnings)?;
             let Some((mut body, extra)) = read else {
                 continue;
             };
-            if rigid {
+            if let Some(own) = own {
+                skins.push(own);
                 warnings.push(format!(
                     "nodes[{}] carries meshes[{}] without a skin: posed rigidly by its node",
                     node.index(),
@@ -718,6 +705,16 @@ fn read_bodies(
         }
     }
     Ok((bodies, extras))
+}
+
+/// The skin of a rigid body: `node` as its one joint, an identity inverse bind matrix (so
+/// that its skinning matrix is the node's world transform).
+fn rigid_skin(node: &gltf::Node) -> Skin {
+    Skin {
+        name: Some(format!("nodes[{}] (rigid)", node.index())),
+        joints: vec![node.index()],
+        inverse_bind: vec![Matrix4::identity()],
+    }
 }
 
 /// One body: the triangle primitives of `mesh` instanced by `node`, skinned by `skin` (its
