@@ -160,6 +160,7 @@ impl Character {
             node: 0,
             mesh: 0,
             skin: 0,
+            rigid: false,
             primitives: vec![PrimitiveRange {
                 mesh: 0,
                 primitive: 0,

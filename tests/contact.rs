@@ -607,6 +607,8 @@ fn an_unskinned_prop_is_a_rigid_body_in_contact() {
     let d = load_bytes("fingertips_ball", &glb, 31);
     let names: Vec<&str> = d.rig.bodies.iter().map(|b| b.name.as_str()).collect();
     assert_eq!(names, ["thumb", "index", "middle", "ball"]);
+    let rigid: Vec<bool> = d.rig.bodies.iter().map(|b| b.rigid).collect();
+    assert_eq!(rigid, [false, false, false, true]);
     let warned = d.rig.warnings.iter().any(|w| w.contains("posed rigidly"));
     assert!(warned, "{:?}", d.rig.warnings);
     let pass = l.pass(object_params(4, &[0.5], 0.0), vec![]);

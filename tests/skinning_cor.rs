@@ -41,6 +41,7 @@ fn body_from(
         node: 0,
         mesh: 0,
         skin: 0,
+        rigid: false,
         primitives: vec![PrimitiveRange {
             mesh: 0,
             primitive: 0,

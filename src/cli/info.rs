@@ -174,6 +174,8 @@ struct BodyInfo {
     name: String,
     mesh: usize,
     skin: usize,
+    /// A mesh without a skin, posed rigidly by its node.
+    rigid: bool,
     primitives: usize,
     vertices: usize,
     welded_vertices: usize,
@@ -217,6 +219,7 @@ fn describe(rig: &Rig, welded: &[WeldedMesh]) -> RigInfo {
             name: b.name.clone(),
             mesh: b.mesh,
             skin: b.skin,
+            rigid: b.rigid,
             primitives: b.primitives.len(),
             vertices: b.vertex_count(),
             welded_vertices: w.vertex_count(),
@@ -664,9 +667,14 @@ pub fn run(a: &Args) -> CliResult {
         info.joints
     );
     for b in &info.bodies {
+        let skin = if b.rigid {
+            format!("no skin: rigid, skin {} its own", b.skin)
+        } else {
+            format!("skin {}", b.skin)
+        };
         println!(
-            "  body '{}' (mesh {}, skin {}): {} primitives, {} vertices ({} welded, {} seam copies merged), {} triangles, up to {} influences",
-            b.name, b.mesh, b.skin, b.primitives, b.vertices, b.welded_vertices, b.seams_welded, b.triangles, b.max_influences
+            "  body '{}' (mesh {}, {skin}): {} primitives, {} vertices ({} welded, {} seam copies merged), {} triangles, up to {} influences",
+            b.name, b.mesh, b.primitives, b.vertices, b.welded_vertices, b.seams_welded, b.triangles, b.max_influences
         );
         let t = &b.topology;
         if t.is_closed_manifold() {

@@ -735,6 +735,7 @@ fn read_body(
         node: node.index(),
         mesh: mesh.index(),
         skin: skin_index,
+        rigid,
         positions: Vec::new(),
         normals: Vec::new(),
         weights: SkinWeights::with_capacity(0),

@@ -66,6 +66,9 @@ pub struct Body {
     pub mesh: usize,
     /// Index into [`Rig::skins`].
     pub skin: usize,
+    /// A mesh without a skin in the file, posed rigidly by its node: `skin` is its own, with
+    /// the node as its one joint.
+    pub rigid: bool,
     /// Bind-pose positions (mesh space), one per file vertex.
     pub positions: Vec<Point3<f64>>,
     /// Bind-pose normals; computed from the triangles when the file has none.
