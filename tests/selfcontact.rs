@@ -1645,11 +1645,7 @@ fn cut_rings(
     crossing: &[[u32; 2]],
 ) -> CutRings {
     let n = normals.len();
-    let adj = vertex_adjacency(n, triangles);
-    let g: Vec<f64> = normals.iter().map(|x| x.dot(d)).collect();
-    let silhouette =
-        (0..n).filter(|&v| shared[v] && adj[v].iter().any(|&w| shared[w] && g[v] * g[w] <= 0.0));
-    let dist = rings_from(&adj, silhouette);
+    let (adj, dist) = silhouette_rings(triangles, normals, shared, d);
     let fold_corners = crossing
         .iter()
         .flatten()
@@ -1680,12 +1676,8 @@ fn fewest_rings_of_any_cut(
     d: &nalgebra::Vector3<f64>,
 ) -> usize {
     let n = normals.len();
-    let adj = vertex_adjacency(n, triangles);
     let shared: Vec<bool> = (0..n).map(|v| r.w1[v] && r.w2[v]).collect();
-    let g: Vec<f64> = normals.iter().map(|x| x.dot(d)).collect();
-    let silhouette =
-        (0..n).filter(|&v| shared[v] && adj[v].iter().any(|&w| shared[w] && g[v] * g[w] <= 0.0));
-    let dist = rings_from(&adj, silhouette);
+    let (adj, dist) = silhouette_rings(triangles, normals, &shared, d);
     let next_to = |v: usize, w: &[bool]| adj[v].iter().any(|&o| w[o] && !shared[o]);
     let sources: Vec<usize> = (0..n)
         .filter(|&v| shared[v] && next_to(v, &r.w1) && !next_to(v, &r.w2))
@@ -1716,6 +1708,24 @@ fn fewest_rings_of_any_cut(
             true
         })
         .unwrap_or(usize::MAX)
+}
+
+/// The vertex neighbours over `triangles`, and each vertex's distance in rings from the
+/// silhouette of the shared region (`shared`) seen from `d`: the vertices of `R` where `n·d`
+/// changes sign along an edge of `R`.
+fn silhouette_rings(
+    triangles: &[[u32; 3]],
+    normals: &[nalgebra::Vector3<f64>],
+    shared: &[bool],
+    d: &nalgebra::Vector3<f64>,
+) -> (Vec<Vec<usize>>, Vec<usize>) {
+    let n = normals.len();
+    let adj = vertex_adjacency(n, triangles);
+    let g: Vec<f64> = normals.iter().map(|x| x.dot(d)).collect();
+    let silhouette =
+        (0..n).filter(|&v| shared[v] && adj[v].iter().any(|&w| shared[w] && g[v] * g[w] <= 0.0));
+    let dist = rings_from(&adj, silhouette);
+    (adj, dist)
 }
 
 /// Breadth-first distance, in edges, from `seeds` over the graph `adj` (`usize::MAX` where

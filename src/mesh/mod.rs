@@ -81,8 +81,10 @@ impl WeldedMesh {
             .iter()
             .map(|t| t.map(|i| to_welded[i as usize]))
             .collect();
-        let report = analyse(positions, &representative, &welded);
+        let mut report = analyse(positions, &representative, &welded);
+        let count = welded.len();
         let triangles = without_repeated_faces(welded);
+        report.duplicate_faces = count - triangles.len();
         Self {
             to_welded,
             representative,
@@ -271,20 +273,17 @@ fn without_repeated_faces(triangles: Vec<[u32; 3]>) -> Vec<[u32; 3]> {
         .collect()
 }
 
+/// The defects of `tris` as the file has them (the weld counts the repeated faces it drops).
 fn analyse(positions: &[Point3<f64>], representative: &[u32], tris: &[[u32; 3]]) -> TopologyReport {
     let mut report = TopologyReport::default();
     // Directed edge counts per undirected edge: (forward a<b, backward).
     let mut edges: HashMap<(u32, u32), (u32, u32)> = HashMap::with_capacity(tris.len() * 2);
-    let mut faces: HashMap<[u32; 3], u32> = HashMap::with_capacity(tris.len());
     let mut used = vec![false; representative.len()];
     for t in tris {
         if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] || area(positions, representative, t) == 0.0
         {
             report.degenerate_faces += 1;
         }
-        let mut key = *t;
-        key.sort_unstable();
-        *faces.entry(key).or_default() += 1;
         for k in 0..3 {
             let (a, b) = (t[k], t[(k + 1) % 3]);
             used[a as usize] = true;
@@ -307,7 +306,6 @@ fn analyse(positions: &[Point3<f64>], representative: &[u32], tris: &[[u32; 3]])
             _ => report.non_manifold_edges += 1,
         }
     }
-    report.duplicate_faces = faces.values().map(|&c| c as usize - 1).sum();
     report.isolated_vertices = used.iter().filter(|&&u| !u).count();
     report
 }

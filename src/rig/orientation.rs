@@ -16,9 +16,10 @@
 //! pair and the bending capsule so written: the passes resolved nothing, as for a mirror).
 
 use super::{Body, Pose, Rig};
+use crate::mesh::operators::{vertex_normals, NormalWeighting};
 use crate::mesh::{signed_volume, WeldedMesh};
 use crate::skinning::lbs::{self, blended_matrix};
-use nalgebra::{Matrix4, Vector3};
+use nalgebra::Matrix4;
 
 /// Reverses the winding and normals of every body that its skin mirrors at `rest` (the rig's
 /// rest pose), with a warning naming it; a warning too for a skin that mirrors only some of a
@@ -75,9 +76,13 @@ pub(super) fn wind_outward(rig: &mut Rig, rest: &Pose) {
         for t in &mut body.triangles {
             t.swap(1, 2);
         }
-        // Judged on the welded faces (one copy of a double-sided surface), still inward.
-        let normals = welded.gather(&posed.normals);
-        let inward_normals = normals_agreement(&positions, &normals, &welded.triangles) > 0.0;
+        // Judged on the welded faces (one copy of a double-sided surface), still inward: the
+        // normals point inward where they agree with those faces' own.
+        let faces = vertex_normals(&positions, &welded.triangles, NormalWeighting::Area);
+        let agreement: f64 = (faces.iter().zip(welded.gather(&posed.normals)))
+            .map(|(f, n)| f.dot(&n))
+            .sum();
+        let inward_normals = agreement > 0.0;
         if inward_normals {
             for n in &mut body.normals {
                 *n = -*n;
@@ -94,26 +99,6 @@ pub(super) fn wind_outward(rig: &mut Rig, rest: &Pose) {
             body.name, body.mesh
         ));
     }
-}
-
-/// How far the vertex normals `normals` agree with the winding of `triangles` at
-/// `positions`: the sum over faces of each face's area vector dotted with its corners'
-/// normals (positive when they point the way the faces wind).
-fn normals_agreement(
-    positions: &[nalgebra::Point3<f64>],
-    normals: &[Vector3<f64>],
-    triangles: &[[u32; 3]],
-) -> f64 {
-    triangles
-        .iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|v| positions[v as usize]);
-            let area = (b - a).cross(&(c - a));
-            t.iter()
-                .map(|&v| area.dot(&normals[v as usize]))
-                .sum::<f64>()
-        })
-        .sum()
 }
 
 /// How many of `body`'s vertices are posed at rest by a blended linear map (`Σ w_j A_j`,
