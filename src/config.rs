@@ -41,6 +41,7 @@
 //!                                 # or "skeleton", or "motion" (relative motion of the parts)
 //! gamma = 0.5                     # this pair's τ, γ, ω (each optional; default the section's)
 //! free_isolated_crease = true     # and this (optional)
+//! enabled = true                  # resolve it even if its sides cross at rest (or false: never)
 //! [[self_contact.separated]]      # two regions of one body that share no vertex (Fig. 14)
 //! sides = [["forearm", "hand"], ["hips"]]   # each side's joints (node names)
 //! ```
@@ -598,6 +599,10 @@ pub struct SelfPairSpec {
     pub omega: Option<f64>,
     /// [`FoldParams::free_isolated_crease`] for this pair.
     pub free_isolated_crease: Option<bool>,
+    /// `false` leaves the pair as it comes in every frame; `true` resolves it even when its
+    /// two sides cross at rest, which `pose` otherwise leaves out
+    /// ([`crate::selfcontact::pass::SelfContactPass::with_pair_enabled`]).
+    pub enabled: Option<bool>,
 }
 
 impl SelfPairSpec {
@@ -648,6 +653,8 @@ pub struct SelfContactSettings {
     /// The fold parameters of the pairs that set their own `τ`, `γ`, `ω` or
     /// `free_isolated_crease`, by pair name (the others use `params`).
     pub pair_params: Vec<(String, FoldParams)>,
+    /// The pairs that set `enabled`, by pair name.
+    pub pair_enabled: Vec<(String, bool)>,
     /// Sweeps over the folds per frame.
     pub passes: usize,
     /// Largest number of sweeps per frame (at least `passes`).
@@ -926,12 +933,12 @@ impl ContactConfig {
                 first: format!("self_contact.pair[{first}]"),
             });
         }
-        if p.direction.is_none() && !p.sets_params() {
+        if p.direction.is_none() && p.enabled.is_none() && !p.sets_params() {
             return Err(self.invalid(
                 field,
                 format!(
-                    "sets nothing for '{}' (give direction, tau, gamma, omega or \
-                     free_isolated_crease)",
+                    "sets nothing for '{}' (give direction, tau, gamma, omega, \
+                     free_isolated_crease or enabled)",
                     p.name
                 ),
             ));
@@ -1346,6 +1353,9 @@ impl ContactConfig {
             params,
             directions,
             pair_params,
+            pair_enabled: (spec.pairs.iter())
+                .filter_map(|p| p.enabled.map(|on| (p.name.clone(), on)))
+                .collect(),
             passes,
             max_passes,
             separated: spec.separated.iter().map(|s| s.sides.clone()).collect(),

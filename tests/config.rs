@@ -736,6 +736,7 @@ fn the_self_contact_table_parses_and_resolves() {
             gamma: None,
             omega: None,
             free_isolated_crease: None,
+            enabled: None,
         }]
     );
     assert!(cfg.self_contact_enabled());
@@ -765,6 +766,7 @@ fn the_self_contact_table_parses_and_resolves() {
             DirectionSource::Fixed(-Vector3::y()),
         )],
         pair_params: Vec::new(),
+        pair_enabled: Vec::new(),
         passes: 1,
         max_passes: 1,
         separated: Vec::new(),
@@ -896,6 +898,7 @@ fn without_a_self_contact_table_the_pass_defaults_apply() {
         params: FoldParams::default(),
         directions: Vec::new(),
         pair_params: Vec::new(),
+        pair_enabled: Vec::new(),
         passes: DEFAULT_FOLD_PASSES,
         max_passes: DEFAULT_MAX_FOLD_PASSES,
         separated: Vec::new(),

@@ -1001,6 +1001,36 @@ fn self_contact_follows_its_configuration() {
     let summary: Value = serde_json::from_slice(&out.stdout).expect("summary");
     assert_eq!(summary["sweeps_max"].as_u64(), Some(1));
     assert_eq!(summary["sweeps_planned"].as_u64(), Some(1));
+    // A pair disabled: left as it comes (the plain skinning), said in text and JSON, and by
+    // `info`.
+    std::fs::write(
+        &config,
+        "[[self_contact.pair]]\nname = \"capsule/lower-upper\"\nenabled = false\n",
+    )
+    .expect("config");
+    let out = pose_frames(&rig_path, &off, "5", &["--self-contact", "--json"]);
+    let summary: Value = serde_json::from_slice(&out.stdout).expect("summary");
+    let left_out = serde_json::json!([{"name": "capsule/lower-upper", "crossing_at_rest": null,
+        "failure_at_rest": null, "disabled": true}]);
+    assert_eq!(summary["self_contact_pairs_left_out"], left_out);
+    for i in 0..5 {
+        let name = format!("frame_{i:04}.obj");
+        let (a, b) = (off.join(&name), plain.join(&name));
+        assert_eq!(obj_bodies(&a, &l.rig), obj_bodies(&b, &l.rig), "{name}");
+    }
+    let out = pose_frames(&rig_path, &off, "5", &["--self-contact"]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains(
+            "1 joint pair(s) left as they come in every frame: capsule/lower-upper (disabled)"
+        ),
+        "{text}"
+    );
+    let info = String::from_utf8(cli(&["info", s(&rig_path)]).stdout).expect("utf-8");
+    assert!(
+        info.contains("left as it comes in every frame (enabled = false)"),
+        "{info}"
+    );
     // An unknown pair name is an error naming the field and listing the derived pairs.
     std::fs::write(
         &config,

@@ -4,6 +4,7 @@
 mod scenes;
 
 use contact_skin::mesh::operators::{vertex_normals, NormalWeighting};
+use contact_skin::pass::RestOverlaps;
 use contact_skin::report::metrics;
 use contact_skin::rig;
 use contact_skin::selfcontact::fold::{FoldInput, FoldParams};
@@ -12,7 +13,7 @@ use contact_skin::selfcontact::turn_guard::TurnReference;
 use contact_skin::selfcontact::{DirectionSource, RegionOptions};
 use contact_skin::skinning::Method;
 use nalgebra::{Matrix4, Point3, Vector3};
-use scenes::{double_sided, load, load_with, welded_positions, Loaded};
+use scenes::{double_sided, load, load_with, strapped, welded_positions, Loaded};
 
 fn self_pass(l: &Loaded, directions: &[(String, DirectionSource)]) -> SelfContactPass {
     self_pass_with(l, directions, FoldParams::default())
@@ -2207,4 +2208,70 @@ fn a_body_turned_inside_out_is_left_as_it_came() {
     assert_eq!(out.inside_out, vec![0]);
     assert!(out.folds.is_empty() && out.failed.is_empty());
     assert_eq!(positions, inverted, "as it came");
+}
+
+/// A strap layered across the capsule's joint, sunk into it at rest as a belt is modeled into
+/// a waist ([`scenes::strapped`]): the fold's two sides cross at rest. `pose` leaves such a
+/// fold as it comes in every frame (its overlap is the model's; resolving it in every frame
+/// works against the model), unless the configuration enables it; the library resolves it by
+/// default, as it does pairs of bodies crossing at rest. A rig whose sides do not cross at
+/// rest is the same to the bit under either rule, and a pair disabled is left as it comes.
+#[test]
+fn a_fold_crossing_at_rest_is_left_out_unless_enabled() {
+    let s = strapped("bending_capsule", 31, 0.25, 25.0);
+    let pass = self_pass(&s, &[]);
+    let crossing = pass.crossing_at_rest();
+    let name = "capsule/lower-upper".to_string();
+    assert_eq!(crossing.len(), 1, "{crossing:?}");
+    assert_eq!((crossing[0].body, &crossing[0].name), (0, &name));
+    assert!(crossing[0].face_pairs > 0 && crossing[0].failure.is_none());
+    assert!(pass.left_out().is_empty(), "resolved by default");
+    let left = self_pass(&s, &[]).with_rest_overlaps(RestOverlaps::LeftOut);
+    assert_eq!(left.left_out(), vec![(0, name.clone())]);
+    let enabled = (self_pass(&s, &[]).with_rest_overlaps(RestOverlaps::LeftOut))
+        .with_pair_enabled(&[(name.clone(), true)])
+        .expect("named");
+    assert!(enabled.left_out().is_empty());
+    let (mut moved_by_default, mut moved_enabled) = (0, 0);
+    for f in [0, 10, 20, 30] {
+        let pose = s.rig.pose_at(Some(0), s.times[f]);
+        let input = s.frame(f);
+        let run = |p: &SelfContactPass| {
+            let mut out = input.clone();
+            let report = p.run(&s.rig, &pose, &mut out).expect("runs");
+            (out, report.folds.len())
+        };
+        let (out, folds) = run(&left);
+        assert_eq!((&out, folds), (&input, 0), "frame {f}: left as it comes");
+        moved_by_default += usize::from(run(&pass).0 != input);
+        moved_enabled += usize::from(run(&enabled).0 != input);
+    }
+    println!("frames moved: by default {moved_by_default}, enabled {moved_enabled}");
+    assert!(moved_by_default >= 3 && moved_enabled == moved_by_default);
+    // The capsule without the strap: nothing crosses at rest, the rule changes nothing.
+    let l = load("bending_capsule", 31);
+    let (plain, ruled) = (
+        self_pass(&l, &[]),
+        self_pass(&l, &[]).with_rest_overlaps(RestOverlaps::LeftOut),
+    );
+    assert!(plain.crossing_at_rest().is_empty() && ruled.left_out().is_empty());
+    let disabled = (self_pass(&l, &[]).with_pair_enabled(&[(name.clone(), false)])).expect("named");
+    assert_eq!(disabled.left_out(), vec![(0, name)]);
+    assert!(self_pass(&l, &[])
+        .with_pair_enabled(&[("no/such-pair".into(), true)])
+        .is_err());
+    for f in [10, 20, 30] {
+        let pose = l.rig.pose_at(Some(0), l.times[f]);
+        let input = l.frame(f);
+        let (mut a, mut b, mut c) = (input.clone(), input.clone(), input.clone());
+        assert!(!plain
+            .run(&l.rig, &pose, &mut a)
+            .expect("runs")
+            .folds
+            .is_empty());
+        ruled.run(&l.rig, &pose, &mut b).expect("runs");
+        disabled.run(&l.rig, &pose, &mut c).expect("runs");
+        assert_eq!(a, b, "frame {f}");
+        assert_eq!(c, input, "frame {f}: disabled");
+    }
 }

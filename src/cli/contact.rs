@@ -140,7 +140,9 @@ impl SelfRun {
         )?
         .with_passes(settings.passes)
         .with_max_passes(settings.max_passes)
-        .with_pair_params(&settings.pair_params)?;
+        .with_pair_params(&settings.pair_params)?
+        .with_rest_overlaps(RestOverlaps::LeftOut)
+        .with_pair_enabled(&settings.pair_enabled)?;
         let pairs = pass.pairs();
         Ok(Self {
             pass,

@@ -6,6 +6,7 @@ use contact_skin::contact::zones::DEFAULT_SAFEGUARD_ANGLE;
 use contact_skin::mesh::{TopologyReport, WeldedMesh};
 use contact_skin::pass::{rest_bodies, ContactPass, RestOverlaps, DEFAULT_EXTENT_FACTOR};
 use contact_skin::rig::{self, Rig};
+use contact_skin::selfcontact::pass::SelfContactPass;
 use contact_skin::selfcontact::{
     derive_pairs_reporting, extend_distinct, separated_from_skeleton, separated_regions,
     PairRegions,
@@ -130,6 +131,14 @@ struct SelfPairInfo {
     /// Whether `[[self_contact.pair]]` sets any of `τ`, `γ`, `ω`, `free_isolated_crease` for
     /// this pair.
     own_params: bool,
+    /// Face pairs of its two sides crossing at rest, when they do (`SelfContactPass::
+    /// crossing_at_rest`).
+    crossing_at_rest: Option<usize>,
+    /// Why its detection failed at rest, when it did.
+    failure_at_rest: Option<String>,
+    /// `pose` leaves it as it comes in every frame: its sides cross at rest (and
+    /// `[[self_contact.pair]] enabled = true` does not resolve it), or `enabled = false`.
+    left_out: bool,
 }
 
 /// The self-contact pass as it would run: its parameters, resolved, and the joint pairs.
@@ -279,11 +288,14 @@ fn describe_self_contact(
     // The rest pose as the pass sees it (skinned at rest: node transforms included).
     let pre = contact_skin::frames::Precomputed::new(rig, contact_skin::skinning::Method::Lbs);
     let rest = contact_skin::frames::welded_positions(rig, &pre, None, 0.0);
-    let pairs = found
+    let mut pairs: Vec<SelfPairInfo> = found
         .regions
         .iter()
         .map(|r| pair_info(r, settings, rig, (&pre, &rest)))
         .collect();
+    if found.error.is_none() {
+        mark_left_out(&mut pairs, &found, (&pre, &rest), rig);
+    }
     Ok(SelfContactInfo {
         joint_extent: f.joint_extent,
         enabled: settings.enabled,
@@ -303,6 +315,48 @@ fn describe_self_contact(
         error: found.error,
         skipped: found.skipped,
     })
+}
+
+/// Marks the `pairs` (listed from `found`) whose sides cross at rest, and those `pose`
+/// leaves out, from the pass as `pose` builds it on `rest` (none marked if it cannot be
+/// built: `pose` then runs without it).
+fn mark_left_out(
+    pairs: &mut [SelfPairInfo],
+    found: &FoundPairs,
+    (pre, rest): (
+        &contact_skin::frames::Precomputed,
+        &[Vec<nalgebra::Point3<f64>>],
+    ),
+    rig: &Rig,
+) {
+    let s = &found.settings;
+    let separated = found.regions.iter().filter(|r| r.separated()).cloned();
+    let pass = SelfContactPass::with_separated(
+        rig,
+        &pre.welded,
+        rest,
+        &s.regions,
+        s.params,
+        &s.directions,
+        separated.collect(),
+    );
+    let Ok(pass) = pass.and_then(|p| {
+        (p.with_rest_overlaps(RestOverlaps::LeftOut)).with_pair_enabled(&s.pair_enabled)
+    }) else {
+        return;
+    };
+    let left_out = pass.left_out();
+    let crossing = pass.crossing_at_rest();
+    for p in pairs {
+        let at_rest = crossing
+            .iter()
+            .find(|c| c.body == p.body && c.name == p.name);
+        p.crossing_at_rest = at_rest
+            .filter(|c| c.failure.is_none())
+            .map(|c| c.face_pairs);
+        p.failure_at_rest = at_rest.and_then(|c| c.failure.clone());
+        p.left_out = left_out.iter().any(|(b, n)| *b == p.body && *n == p.name);
+    }
 }
 
 /// The self-contact pass's working regions as `pose` would build them, with the resolved
@@ -406,6 +460,9 @@ fn pair_info(
         omega: q.deform.omega,
         free_isolated_crease: q.free_isolated_crease,
         own_params: own.is_some(),
+        crossing_at_rest: None,
+        failure_at_rest: None,
+        left_out: false,
         joint_size,
         extent: f.joint_extent.map_or(f.deform.extent, |k| k * joint_size),
         body: p.body,
@@ -519,6 +576,26 @@ fn print_self_contact(s: &SelfContactInfo) {
             length(p.extent)
         );
         println!("      {}", p.reason);
+        if let Some(line) = left_out_line(p) {
+            println!("      {line}");
+        }
+    }
+}
+
+/// What `pose` does with a pair whose sides cross at rest, or that it leaves out.
+fn left_out_line(p: &SelfPairInfo) -> Option<String> {
+    let at_rest = match (p.crossing_at_rest, &p.failure_at_rest) {
+        (Some(n), _) => Some(format!("its two sides cross at rest ({n} face pairs)")),
+        (None, Some(e)) => Some(format!("its detection fails at rest ({e})")),
+        (None, None) => None,
+    };
+    match (at_rest, p.left_out) {
+        (Some(why), true) => Some(format!(
+            "{why}: left as it comes in every frame (modeled overlap; [[self_contact.pair]] enabled = true resolves it)"
+        )),
+        (Some(why), false) => Some(format!("{why}: resolved (enabled = true)")),
+        (None, true) => Some("left as it comes in every frame (enabled = false)".into()),
+        (None, false) => None,
     }
 }
 

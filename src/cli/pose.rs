@@ -2,7 +2,9 @@
 //! object pass, then the self-contact pass; unless `--no-contact`) and writes the frames (and,
 //! with `--diagnostics`, the passes' fields).
 
-use super::contact::{self, median, median_folds, median_stages, BoxError, ContactRun, FoldMs};
+use super::contact::{
+    self, median, median_folds, median_stages, BoxError, ContactRun, FoldMs, SelfRun,
+};
 use super::frame_count;
 use super::measure::{self, Measured, RunMetrics};
 use super::CliResult;
@@ -168,6 +170,9 @@ struct Summary {
     self_contact_pairs: Vec<String>,
     /// Parent/child pairs the pass left out, one reason each (e.g. no partition of unity).
     self_contact_pairs_skipped: Vec<String>,
+    /// Joint pairs of the pass left as they come in every frame: their two sides cross at
+    /// rest (modeled overlaps), or the configuration disables them.
+    self_contact_pairs_left_out: Vec<LeftOutFold>,
     /// Frames where the self-contact pass resolved at least one fold.
     fold_frames: usize,
     /// The pairs found folding into contact in some frame, in the pass's order.
@@ -486,6 +491,7 @@ fn summarize(
         self_contact_skipped: job.contact.and_then(|c| c.self_contact_skipped.clone()),
         self_contact_pairs: pairs,
         self_contact_pairs_skipped: self_run.map_or(Vec::new(), |s| s.pass.skipped().to_vec()),
+        self_contact_pairs_left_out: self_run.map_or(Vec::new(), left_out_folds),
         fold_frames: stats.iter().filter(|s| !s.folds.is_empty()).count(),
         folds,
         folds_without_direction: stats.iter().map(|s| s.folds_without_direction).sum(),
@@ -696,8 +702,65 @@ fn print_contact(s: &Summary) {
     }
 }
 
+/// A joint pair the self-contact pass leaves as it comes in every frame
+/// ([`contact_skin::selfcontact::pass::SelfContactPass::left_out`]).
+#[derive(Debug, Serialize)]
+struct LeftOutFold {
+    name: String,
+    /// Face pairs of its two sides crossing at rest, when they do.
+    crossing_at_rest: Option<usize>,
+    /// Why its detection failed at rest (every frame's would fail alike), when it did.
+    failure_at_rest: Option<String>,
+    /// `[[self_contact.pair]] enabled = false`.
+    disabled: bool,
+}
+
+/// The pairs `run` leaves out in every frame, with why.
+fn left_out_folds(run: &SelfRun) -> Vec<LeftOutFold> {
+    let crossing = run.pass.crossing_at_rest();
+    (run.pass.left_out().into_iter())
+        .map(|(body, name)| {
+            let at_rest = crossing.iter().find(|c| c.body == body && c.name == name);
+            let disabled = (run.settings.pair_enabled.iter()).any(|(n, on)| *n == name && !on);
+            LeftOutFold {
+                crossing_at_rest: at_rest
+                    .filter(|c| c.failure.is_none())
+                    .map(|c| c.face_pairs),
+                failure_at_rest: at_rest.and_then(|c| c.failure.clone()),
+                disabled,
+                name,
+            }
+        })
+        .collect()
+}
+
+/// The line on the pairs left out in every frame, if any.
+fn print_left_out_folds(folds: &[LeftOutFold]) {
+    if folds.is_empty() {
+        return;
+    }
+    let why = |f: &LeftOutFold| match (f.disabled, f.crossing_at_rest, &f.failure_at_rest) {
+        (true, ..) => format!("{} (disabled)", f.name),
+        (false, Some(n), _) => format!("{} ({n} face pairs cross at rest)", f.name),
+        (false, None, Some(e)) => format!("{} (at rest: {e})", f.name),
+        (false, None, None) => f.name.clone(),
+    };
+    let listed: Vec<String> = folds.iter().take(8).map(why).collect();
+    let more = folds.len().saturating_sub(listed.len());
+    let more = if more > 0 {
+        format!(" and {more} more")
+    } else {
+        String::new()
+    };
+    println!(
+        "self-contact: {} joint pair(s) left as they come in every frame: {}{more} ([[self_contact.pair]] enabled = true resolves one whose sides cross at rest)",
+        folds.len(),
+        listed.join(", ")
+    );
+}
+
 /// The self-contact pass's lines: frames with a fold, median step times, Table 1's columns,
-/// and what was skipped, left unresolved or guarded.
+/// and what was skipped, left out, left unresolved or guarded.
 fn print_self_contact(s: &Summary) {
     if let (Some(wall), Some(t)) = (s.self_contact_ms, &s.fold_ms) {
         let folds = if s.folds.is_empty() {
@@ -733,6 +796,7 @@ fn print_self_contact(s: &Summary) {
         for reason in &s.self_contact_pairs_skipped {
             println!("self-contact: skipped {reason}");
         }
+        print_left_out_folds(&s.self_contact_pairs_left_out);
         if s.folds_without_direction > 0 {
             println!(
                 "self-contact: {} fold(s) skipped without a direction (bones folded 180°, no common relative motion, or separated regions crossing symmetrically)",

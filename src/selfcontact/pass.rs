@@ -15,6 +15,7 @@ use super::SelfContactError;
 use crate::intersect::{FaceSets, IntersectError, MeshIndex, PosedMesh, TriangleBvh};
 use crate::mesh::operators::{mean_edge_length, vertex_normals, NormalWeighting};
 use crate::mesh::{RestVolume, WeldedMesh};
+use crate::pass::RestOverlaps;
 use crate::report::metrics::{penetrating_among, WindingNumber};
 use crate::rig::{Pose, Rig};
 use crate::skinning::{cofactor, unit_or_zero};
@@ -37,6 +38,29 @@ struct Fold {
     direction: DirectionSource,
     /// Its own parameters ([`SelfContactPass::with_pair_params`]); `None`: the pass's.
     params: Option<FoldParams>,
+    /// How its two sides meet at the rest positions the pass was built on, when they cross
+    /// there ([`SelfContactPass::crossing_at_rest`]).
+    at_rest: Option<RestCrossing>,
+    /// Whether it runs whatever it does at rest ([`SelfContactPass::with_pair_enabled`]);
+    /// `None`: as [`SelfContactPass::with_rest_overlaps`] says.
+    enabled: Option<bool>,
+}
+
+/// A fold whose two sides already cross at the rest positions the pass was built on
+/// ([`SelfContactPass::crossing_at_rest`]): layers modeled through each other across a joint
+/// (a belt sunk into the waist, a collar into the neck), or a broken mesh (a triangle list
+/// read as a strip).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct RestCrossing {
+    /// The body.
+    pub body: usize,
+    /// The pair's name.
+    pub name: String,
+    /// Face pairs of its two sides crossing at rest (0 when the detection failed there).
+    pub face_pairs: usize,
+    /// Why the detection failed at rest (surfaces entangled rather than in contact, ...), when
+    /// it did: every frame's would fail alike.
+    pub failure: Option<String>,
 }
 
 /// What one fold did in a frame.
@@ -121,6 +145,8 @@ pub struct SelfContactPass {
     max_passes: usize,
     /// Joint pairs left out when deriving, one reason each ([`derive_pairs_reporting`]).
     skipped: Vec<String>,
+    /// What the pass does with the folds of [`SelfContactPass::crossing_at_rest`].
+    rest_overlaps: RestOverlaps,
     /// Detection trees of finished frames, one set per body, each refit in place by a later
     /// frame ([`MeshIndex::refit_nodes_in`]) instead of copied from the index: as many sets as
     /// frames ran at once. Only their allocations are reused: every box is rewritten before a
@@ -260,8 +286,58 @@ impl SelfContactPass {
             passes: DEFAULT_FOLD_PASSES,
             max_passes: DEFAULT_MAX_FOLD_PASSES,
             skipped,
+            rest_overlaps: RestOverlaps::default(),
             spare_trees: Mutex::default(),
         })
+    }
+
+    /// The folds whose two sides already cross at the positions the pass was built on (by
+    /// the detection that opens a fold in a frame; a detection that fails there counts too,
+    /// with its reason), in fold order. What the pass does with them:
+    /// [`SelfContactPass::with_rest_overlaps`].
+    pub fn crossing_at_rest(&self) -> Vec<&RestCrossing> {
+        self.folds
+            .iter()
+            .filter_map(|f| f.at_rest.as_ref())
+            .collect()
+    }
+
+    /// Sets what the pass does with the folds of [`SelfContactPass::crossing_at_rest`]
+    /// (default [`RestOverlaps::Resolved`], as [`crate::pass::ContactPass::with_rest_overlaps`]:
+    /// a caller may build the pass on any positions). With [`RestOverlaps::LeftOut`] (what
+    /// `contact-skin pose` does on the rig's rest pose) they are left as they come in every
+    /// frame unless [`SelfContactPass::with_pair_enabled`] enables them: their sides overlap
+    /// as modeled, and resolving that overlap in every frame works against the model.
+    pub fn with_rest_overlaps(mut self, rest_overlaps: RestOverlaps) -> Self {
+        self.rest_overlaps = rest_overlaps;
+        self
+    }
+
+    /// Enables (`true`: resolved even when crossing at rest) or disables (`false`: left as
+    /// it comes in every frame) the named joint pairs, every fold of that name (the
+    /// configuration's `[[self_contact.pair]] enabled`). A name that is not one of
+    /// [`SelfContactPass::pairs`] is [`SelfPassError::Mismatch`].
+    pub fn with_pair_enabled(mut self, enabled: &[(String, bool)]) -> Result<Self, SelfPassError> {
+        for (name, on) in enabled {
+            self.set_on_folds_named(name, |fold| fold.enabled = Some(*on))?;
+        }
+        Ok(self)
+    }
+
+    /// The folds the pass leaves out in every frame: those disabled, and those crossing at
+    /// rest that it leaves out ([`SelfContactPass::with_rest_overlaps`]) and no
+    /// [`SelfContactPass::with_pair_enabled`] enables; `(body, name)`, in fold order.
+    pub fn left_out(&self) -> Vec<(usize, String)> {
+        (self.folds.iter())
+            .filter(|f| !self.runs(f))
+            .map(|f| (f.body, f.pre.regions.pair.name.clone()))
+            .collect()
+    }
+
+    /// Whether `fold` runs in the frames ([`SelfContactPass::left_out`]).
+    fn runs(&self, fold: &Fold) -> bool {
+        let left_at_rest = self.rest_overlaps == RestOverlaps::LeftOut && fold.at_rest.is_some();
+        fold.enabled.unwrap_or(!left_at_rest)
     }
 
     /// Sets how many sweeps over the folds a frame gets (at least 1; default
@@ -341,22 +417,28 @@ impl SelfContactPass {
         params: &[(String, FoldParams)],
     ) -> Result<Self, SelfPassError> {
         for (name, p) in params {
-            let mut found = false;
-            for fold in self
-                .folds
-                .iter_mut()
-                .filter(|f| f.pre.regions.pair.name == *name)
-            {
-                fold.params = Some(*p);
-                found = true;
-            }
-            if !found {
-                return Err(SelfPassError::Mismatch(format!(
-                    "no joint pair named '{name}'"
-                )));
-            }
+            self.set_on_folds_named(name, |fold| fold.params = Some(*p))?;
         }
         Ok(self)
+    }
+
+    /// Calls `set` on every fold named `name`; [`SelfPassError::Mismatch`] when none is.
+    fn set_on_folds_named(
+        &mut self,
+        name: &str,
+        mut set: impl FnMut(&mut Fold),
+    ) -> Result<(), SelfPassError> {
+        let mut found = false;
+        for fold in (self.folds.iter_mut()).filter(|f| f.pre.regions.pair.name == name) {
+            set(fold);
+            found = true;
+        }
+        match found {
+            true => Ok(()),
+            false => Err(SelfPassError::Mismatch(format!(
+                "no joint pair named '{name}'"
+            ))),
+        }
     }
 
     /// The parameters `fold` runs with.
@@ -474,7 +556,7 @@ impl SelfContactPass {
         // those whose working regions hold a penetrating vertex. A fold that still touches
         // without one is left as it is (before 2026-12-03 every fold ran again: the same
         // outputs to the byte on the 13 scenes compared, a choice rather than an identity).
-        let mut active = vec![true; self.folds.len()];
+        let mut active: Vec<bool> = self.folds.iter().map(|f| self.runs(f)).collect();
         for sweep in 1..=self.max_passes {
             let mut changed = false;
             further.moved.fill(false);
@@ -551,13 +633,14 @@ impl SelfContactPass {
         Ok(())
     }
 
-    /// Per fold, whether its working regions hold one of its body's `flagged` vertices.
+    /// Per fold, whether it runs and its working regions hold one of its body's `flagged`
+    /// vertices.
     fn folds_holding(&self, flagged: &[Vec<u32>]) -> Vec<bool> {
         let holds = |fold: &Fold| {
             let regions = &fold.pre.regions;
-            flagged[fold.body]
-                .iter()
-                .any(|&v| regions.w1[v as usize] || regions.w2[v as usize])
+            self.runs(fold)
+                && (flagged[fold.body].iter())
+                    .any(|&v| regions.w1[v as usize] || regions.w2[v as usize])
         };
         self.folds.iter().map(holds).collect()
     }
@@ -1027,9 +1110,36 @@ fn with_detection(
             axes,
             direction,
             params: None,
+            at_rest: None,
+            enabled: None,
         });
     }
+    let mut positions = rest.to_vec();
+    let mut bodies = PosedBodies::new(&mut positions, None);
+    for fold in &mut folds {
+        fold.at_rest = crossing_at(fold, &mut bodies);
+    }
     Ok(folds)
+}
+
+/// How `fold`'s two sides meet at `bodies`' positions, when they cross there (the frames'
+/// detection, [`FoldPre::detect_on`]; a detection that fails is a crossing with its reason).
+fn crossing_at(fold: &Fold, bodies: &mut PosedBodies) -> Option<RestCrossing> {
+    let crossing = |face_pairs, failure| RestCrossing {
+        body: fold.body,
+        name: fold.pre.regions.pair.name.clone(),
+        face_pairs,
+        failure,
+    };
+    let detected = match bodies.posed(fold.body, &fold.detection) {
+        Ok(posed) => fold.pre.detect_on(&posed, &fold.sets, Instant::now()),
+        Err(e) => return Some(crossing(0, Some(e.to_string()))),
+    };
+    match detected {
+        Ok(None) => None,
+        Ok(Some(d)) => Some(crossing(d.face_pairs.len(), None)),
+        Err(e) => Some(crossing(0, Some(e.to_string()))),
+    }
 }
 
 /// The turn guard's reference of one body in one pose (a sign reference per face only).

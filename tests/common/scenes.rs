@@ -55,6 +55,56 @@ pub fn committed_bytes(name: &str) -> Vec<u8> {
     std::fs::read(path).expect("committed rig reads")
 }
 
+/// A committed rig's copy with a strap layered across its first body's joint, as a belt is
+/// modeled sunk into a waist: the faces of the band of the body within `half_width` of the
+/// plane through its rest box's centre square to its longest side, copied (with their
+/// vertices' skin weights and normals) and tilted by `degrees` about an axis of that plane
+/// through the centre, so that the strap crosses the body's surface at rest on both sides of
+/// the joint. The copy is an open surface in the same body and primitive.
+pub fn strapped(name: &str, frames: usize, half_width: f64, degrees: f64) -> Loaded {
+    let mut rig = load(name, frames).rig;
+    let body = &mut rig.bodies[0];
+    let (lo, hi) = body.positions.iter().fold(
+        (Point3::from([f64::MAX; 3]), Point3::from([f64::MIN; 3])),
+        |(lo, hi), p| (lo.inf(p), hi.sup(p)),
+    );
+    let centre = nalgebra::center(&lo, &hi);
+    let axis = (hi - lo).iamax();
+    let in_band = |v: u32| (body.positions[v as usize][axis] - centre[axis]).abs() < half_width;
+    let band: Vec<[u32; 3]> = (body.triangles.iter().copied())
+        .filter(|t| t.iter().all(|&v| in_band(v)))
+        .collect();
+    let tilt = nalgebra::Rotation3::from_axis_angle(
+        &Vector3::ith_axis((axis + 1) % 3),
+        degrees.to_radians(),
+    );
+    let mut copy_of = std::collections::HashMap::new();
+    let mut strap = Vec::with_capacity(band.len());
+    for t in band {
+        strap.push(t.map(|v| {
+            *copy_of.entry(v).or_insert_with(|| {
+                let (joints, weights) = body.weights.row_slices(v as usize);
+                let row: Vec<(u16, f64)> = joints
+                    .iter()
+                    .copied()
+                    .zip(weights.iter().copied())
+                    .collect();
+                body.weights.push_row(&row);
+                let p = body.positions[v as usize];
+                body.positions.push(centre + tilt * (p - centre));
+                body.normals.push(tilt * body.normals[v as usize]);
+                (body.positions.len() - 1) as u32
+            })
+        }));
+    }
+    body.triangles.extend(strap);
+    if let Some(last) = body.primitives.last_mut() {
+        last.vertex_count = body.positions.len() - last.first_vertex;
+        last.triangle_count = body.triangles.len() - last.first_triangle;
+    }
+    prepare(rig, frames, Method::Lbs)
+}
+
 /// A committed rig's copy with every body made double-sided, as exporters make a two-sided
 /// surface: each face listed a second time, with its winding `reversed` or not.
 pub fn double_sided(name: &str, frames: usize, reversed: bool) -> Loaded {
