@@ -622,8 +622,9 @@ fn a_failing_fold_is_left_as_skinned_and_the_others_resolve() {
 }
 
 /// The same strip-read CesiumMan under `pose`'s rule for folds whose sides cross at rest
-/// (`RestOverlaps::LeftOut`): every fold crosses or fails there, each is left as it comes in
-/// every frame, and the frames run without a failed fold: the output is the input. Before
+/// (`RestOverlaps::LeftOut`): every fold crosses there, each is left as it comes in every
+/// frame, and the frames run without a failed fold: the output is the input. Read as a fan,
+/// its folds' detection fails at rest (entangled): those are left out too, with the reason. Before
 /// (measured 2026-12-05, `pose --self-contact`, 2 frames): 184 folds failed and the others
 /// "resolved" the broken mesh, 13.6 s per frame; now 0.16 ms per frame.
 #[test]
@@ -641,6 +642,27 @@ fn folds_crossing_at_rest_are_left_out_of_a_broken_mesh() {
     let p = prepared.pass_frame(Some(0), 0, 0.0);
     assert!(p.report.failed.is_empty() && p.report.folds.is_empty());
     assert_eq!(p.out, p.input);
+    // Read as a fan: the detection of the folds found fails at rest (entangled), and each
+    // such fold is left out with its reason.
+    let bytes = std::fs::read(&path).expect("sample reads");
+    let rig = rig::load_from_bytes(&path, &with_first_primitive_mode(&bytes, 6)).expect("loads");
+    let fan = prepare_rig(rig, FoldParams::default(), Method::Lbs);
+    let failing: Vec<_> = (fan.pass.crossing_at_rest().into_iter())
+        .filter(|c| c.crossing_face_pairs().is_none())
+        .cloned()
+        .collect();
+    assert!(!failing.is_empty());
+    for c in &failing {
+        assert!(
+            c.failure
+                .as_deref()
+                .is_some_and(|e| e.contains("entangled")),
+            "{c:?}"
+        );
+    }
+    let fan_pass = fan.pass.with_rest_overlaps(RestOverlaps::LeftOut);
+    let left_out = fan_pass.left_out();
+    assert!((failing.iter()).all(|c| left_out.iter().any(|(_, n)| *n == c.name)));
     // The sample itself: no fold crosses at rest.
     let clean = with_skeleton_pairs(prepare(&path, FoldParams::default()));
     assert!(clean.pass.crossing_at_rest().is_empty());

@@ -351,9 +351,7 @@ fn mark_left_out(
         let at_rest = crossing
             .iter()
             .find(|c| c.body == p.body && c.name == p.name);
-        p.crossing_at_rest = at_rest
-            .filter(|c| c.failure.is_none())
-            .map(|c| c.face_pairs);
+        p.crossing_at_rest = at_rest.and_then(|c| c.crossing_face_pairs());
         p.failure_at_rest = at_rest.and_then(|c| c.failure.clone());
         p.left_out = left_out.iter().any(|(b, n)| *b == p.body && *n == p.name);
     }

@@ -723,9 +723,7 @@ fn left_out_folds(run: &SelfRun) -> Vec<LeftOutFold> {
             let at_rest = crossing.iter().find(|c| c.body == body && c.name == name);
             let disabled = (run.settings.pair_enabled.iter()).any(|(n, on)| *n == name && !on);
             LeftOutFold {
-                crossing_at_rest: at_rest
-                    .filter(|c| c.failure.is_none())
-                    .map(|c| c.face_pairs),
+                crossing_at_rest: at_rest.and_then(|c| c.crossing_face_pairs()),
                 failure_at_rest: at_rest.and_then(|c| c.failure.clone()),
                 disabled,
                 name,

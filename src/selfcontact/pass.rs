@@ -2,7 +2,9 @@
 //! region folds into contact is resolved, one after the other on the same positions (the
 //! output of a pair is the input of the next, in a fixed order), each only when it
 //! intersects itself; a frame without any fold costs one BVH refit per body and one
-//! self-overlap query per pair.
+//! self-overlap query per pair. A pair whose two sides already cross where the pass is built
+//! (a layer modeled through the skin across the joint) is resolved or left as it comes in
+//! every frame, as [`SelfContactPass::with_rest_overlaps`] says.
 
 use super::direction::{BoneAxes, DirectionSource, Meeting};
 use super::fold::{
@@ -61,6 +63,13 @@ pub struct RestCrossing {
     /// Why the detection failed at rest (surfaces entangled rather than in contact, ...), when
     /// it did: every frame's would fail alike.
     pub failure: Option<String>,
+}
+
+impl RestCrossing {
+    /// The face pairs crossing at rest; `None` when the detection failed there.
+    pub fn crossing_face_pairs(&self) -> Option<usize> {
+        self.failure.is_none().then_some(self.face_pairs)
+    }
 }
 
 /// What one fold did in a frame.
