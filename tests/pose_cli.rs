@@ -1192,6 +1192,71 @@ fn info_names_the_pairs_it_skips_and_why() {
     assert_eq!(v["self_contact"]["pairs"].as_array().map(Vec::len), Some(0));
 }
 
+/// A rig whose joint pairs cross themselves at rest (CesiumMan's triangle list read as a
+/// strip: a broken mesh): `pose` leaves each pair as it comes in every frame, names it in the
+/// JSON with its crossing face pairs (the frames are the plain skinning's, no fold runs or
+/// fails), `info` marks it, and `enabled = true` on a pair resolves that one. Before, the
+/// pairs ran in every frame, 184 of them failing over 2 frames, 13.6 s per frame.
+#[test]
+fn pose_leaves_out_the_pairs_crossing_at_rest() {
+    let Some(sample) = present_sample("CesiumMan/CesiumMan.glb") else {
+        return;
+    };
+    let dir = tmp("crossing-at-rest");
+    std::fs::create_dir_all(&dir).expect("folder");
+    let rig_path = dir.join("strip.glb");
+    let bytes = std::fs::read(&sample).expect("sample reads");
+    let strip = glb::with_json(&bytes, |j| {
+        j["meshes"][0]["primitives"][0]["mode"] = 5.into()
+    });
+    std::fs::write(&rig_path, strip).expect("strip written");
+    // `pose --self-contact --json` into `out`: the summary and its pairs left out.
+    let summary = |out: &str| -> (Value, Vec<Value>) {
+        let run = pose_frames(
+            &rig_path,
+            &dir.join(out),
+            "2",
+            &["--self-contact", "--json"],
+        );
+        let v: Value = serde_json::from_slice(&run.stdout).expect("summary");
+        let left = v["self_contact_pairs_left_out"].as_array().cloned();
+        (v, left.expect("left out"))
+    };
+    let (v, left) = summary("self");
+    let pairs = v["self_contact_pairs"].as_array().expect("pairs").len();
+    assert_eq!(left.len(), pairs);
+    for f in &left {
+        assert!(f["crossing_at_rest"].as_u64().is_some_and(|n| n > 0), "{f}");
+        assert_eq!(
+            (&f["disabled"], &f["failure_at_rest"]),
+            (&Value::Bool(false), &Value::Null)
+        );
+    }
+    assert_eq!(
+        (v["fold_frames"].as_u64(), v["folds_failed"].as_u64()),
+        (Some(0), Some(0))
+    );
+    pose_frames(&rig_path, &dir.join("plain"), "2", &["--no-contact"]);
+    for i in 0..2 {
+        let name = format!("frame_{i:04}.obj");
+        let read = |d: &str| std::fs::read_to_string(dir.join(d).join(&name)).expect("frame");
+        let (with, plain) = (obj_vertices(&read("self")), obj_vertices(&read("plain")));
+        assert!(with == plain, "{name}: not the plain skinning");
+    }
+    let info = cli(&["info", "--json", s(&rig_path)]);
+    let info: Value = serde_json::from_slice(&info.stdout).expect("info");
+    let listed = info["self_contact"]["pairs"].as_array().expect("pairs");
+    assert_eq!(listed.len(), pairs);
+    assert!((listed.iter()).all(|p| p["left_out"] == true && p["crossing_at_rest"].is_u64()));
+    let first = left[0]["name"].as_str().expect("name").to_string();
+    let config = format!("[[self_contact.pair]]\nname = \"{first}\"\nenabled = true\n");
+    std::fs::write(dir.join("strip.contact.toml"), config).expect("config");
+    let (_, left) = summary("enabled");
+    assert_eq!(left.len(), pairs - 1);
+    assert!(left.iter().all(|f| f["name"] != first.as_str()));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// `pose --self-contact` on a rig whose only pair cannot carry a partition of unity (Khronos's
 /// RiggedSimple) says why it resolves nothing: the pair and the reason, in text and JSON.
 #[test]
