@@ -2227,7 +2227,13 @@ fn a_fold_crossing_at_rest_is_left_out_unless_enabled() {
     assert!(crossing[0].face_pairs > 0 && crossing[0].failure.is_none());
     assert!(pass.left_out().is_empty(), "resolved by default");
     let left = self_pass(&s, &[]).with_rest_overlaps(RestOverlaps::LeftOut);
-    assert_eq!(left.left_out(), vec![(0, name.clone())]);
+    let named = |p: &SelfContactPass| -> Vec<(usize, String, bool)> {
+        (p.left_out().into_iter())
+            .map(|f| (f.body, f.name, f.disabled))
+            .collect()
+    };
+    assert_eq!(named(&left), vec![(0, name.clone(), false)]);
+    assert_eq!(left.left_out()[0].at_rest.as_ref(), Some(crossing[0]));
     let enabled = (self_pass(&s, &[]).with_rest_overlaps(RestOverlaps::LeftOut))
         .with_pair_enabled(&[(name.clone(), true)])
         .expect("named");
@@ -2256,7 +2262,7 @@ fn a_fold_crossing_at_rest_is_left_out_unless_enabled() {
     );
     assert!(plain.crossing_at_rest().is_empty() && ruled.left_out().is_empty());
     let disabled = (self_pass(&l, &[]).with_pair_enabled(&[(name.clone(), false)])).expect("named");
-    assert_eq!(disabled.left_out(), vec![(0, name)]);
+    assert_eq!(named(&disabled), vec![(0, name, true)]);
     assert!(self_pass(&l, &[])
         .with_pair_enabled(&[("no/such-pair".into(), true)])
         .is_err());

@@ -662,7 +662,7 @@ fn folds_crossing_at_rest_are_left_out_of_a_broken_mesh() {
     }
     let fan_pass = fan.pass.with_rest_overlaps(RestOverlaps::LeftOut);
     let left_out = fan_pass.left_out();
-    assert!((failing.iter()).all(|c| left_out.iter().any(|(_, n)| *n == c.name)));
+    assert!((failing.iter()).all(|c| left_out.iter().any(|f| f.name == c.name)));
     // The sample itself: no fold crosses at rest.
     let clean = with_skeleton_pairs(prepare(&path, FoldParams::default()));
     assert!(clean.pass.crossing_at_rest().is_empty());

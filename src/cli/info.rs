@@ -353,7 +353,9 @@ fn mark_left_out(
             .find(|c| c.body == p.body && c.name == p.name);
         p.crossing_at_rest = at_rest.and_then(|c| c.crossing_face_pairs());
         p.failure_at_rest = at_rest.and_then(|c| c.failure.clone());
-        p.left_out = left_out.iter().any(|(b, n)| *b == p.body && *n == p.name);
+        p.left_out = left_out
+            .iter()
+            .any(|f| f.body == p.body && f.name == p.name);
     }
 }
 

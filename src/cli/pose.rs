@@ -717,17 +717,12 @@ struct LeftOutFold {
 
 /// The pairs `run` leaves out in every frame, with why.
 fn left_out_folds(run: &SelfRun) -> Vec<LeftOutFold> {
-    let crossing = run.pass.crossing_at_rest();
     (run.pass.left_out().into_iter())
-        .map(|(body, name)| {
-            let at_rest = crossing.iter().find(|c| c.body == body && c.name == name);
-            let disabled = (run.settings.pair_enabled.iter()).any(|(n, on)| *n == name && !on);
-            LeftOutFold {
-                crossing_at_rest: at_rest.and_then(|c| c.crossing_face_pairs()),
-                failure_at_rest: at_rest.and_then(|c| c.failure.clone()),
-                disabled,
-                name,
-            }
+        .map(|f| LeftOutFold {
+            crossing_at_rest: f.at_rest.as_ref().and_then(|c| c.crossing_face_pairs()),
+            failure_at_rest: f.at_rest.and_then(|c| c.failure),
+            disabled: f.disabled,
+            name: f.name,
         })
         .collect()
 }

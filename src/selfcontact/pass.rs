@@ -65,6 +65,19 @@ pub struct RestCrossing {
     pub failure: Option<String>,
 }
 
+/// A fold the pass leaves out in every frame ([`SelfContactPass::left_out`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct LeftOutFold {
+    /// The body.
+    pub body: usize,
+    /// The pair's name.
+    pub name: String,
+    /// How its sides cross at rest, when they do.
+    pub at_rest: Option<RestCrossing>,
+    /// Disabled ([`SelfContactPass::with_pair_enabled`] with `false`).
+    pub disabled: bool,
+}
+
 impl RestCrossing {
     /// The face pairs crossing at rest; `None` when the detection failed there.
     pub fn crossing_face_pairs(&self) -> Option<usize> {
@@ -333,13 +346,18 @@ impl SelfContactPass {
         Ok(self)
     }
 
-    /// The folds the pass leaves out in every frame: those disabled, and those crossing at
-    /// rest that it leaves out ([`SelfContactPass::with_rest_overlaps`]) and no
-    /// [`SelfContactPass::with_pair_enabled`] enables; `(body, name)`, in fold order.
-    pub fn left_out(&self) -> Vec<(usize, String)> {
+    /// The folds the pass leaves out in every frame, with why: those disabled, and those
+    /// crossing at rest that it leaves out ([`SelfContactPass::with_rest_overlaps`]) and no
+    /// [`SelfContactPass::with_pair_enabled`] enables; in fold order.
+    pub fn left_out(&self) -> Vec<LeftOutFold> {
         (self.folds.iter())
             .filter(|f| !self.runs(f))
-            .map(|f| (f.body, f.pre.regions.pair.name.clone()))
+            .map(|f| LeftOutFold {
+                body: f.body,
+                name: f.pre.regions.pair.name.clone(),
+                at_rest: f.at_rest.clone(),
+                disabled: f.enabled == Some(false),
+            })
             .collect()
     }
 
