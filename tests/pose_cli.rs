@@ -1730,3 +1730,96 @@ fn a_body_mirrored_by_its_animation_is_left_out_and_reported() {
         .is_empty());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `pose --self-contact` on the bending capsule with a strap sunk across its joint, written
+/// as a second primitive of its mesh (a separate piece, crossing the capsule at rest, as a
+/// belt is modeled): the fold runs without the strap, named with its faces in the JSON and
+/// in a text line, and `info` says so; the strap's vertices come out as the plain
+/// skinning's, the capsule's as the capsule's own run without the strap (an independent run
+/// of the same fold), with a fold in several frames; `--metrics` measures the capsule without
+/// the strap.
+#[test]
+fn pose_runs_a_fold_without_a_layer_sunk_into_it() {
+    let dir = tmp("layer");
+    std::fs::create_dir_all(&dir).expect("folder");
+    let capsule = committed("bending_capsule");
+    let rig = contact_skin::rig::load(&capsule).expect("rig");
+    let strap = scenes::Strap::of(&rig.bodies[0], 0.25, 25.0, 1.02);
+    let xyz = |v: &[nalgebra::Point3<f64>]| -> Vec<[f64; 3]> {
+        v.iter().map(|p| p.coords.into()).collect()
+    };
+    let normals: Vec<[f64; 3]> = strap.normals.iter().map(|n| (*n).into()).collect();
+    let bytes = std::fs::read(&capsule).expect("rig reads");
+    let strapped = glb::with_primitive_appended(
+        &bytes,
+        0,
+        &xyz(&strap.positions),
+        &normals,
+        &strap.weights,
+        &strap.triangles,
+    );
+    let rig_path = dir.join("strapped.glb");
+    std::fs::write(&rig_path, strapped).expect("written");
+    let frames = "11";
+    let run = pose_frames(
+        &rig_path,
+        &dir.join("self"),
+        frames,
+        &["--self-contact", "--json", "--metrics"],
+    );
+    let v: Value = serde_json::from_slice(&run.stdout).expect("summary");
+    let layers = v["self_contact_layers"].as_array().expect("layers");
+    assert_eq!(layers.len(), 1, "{v}");
+    assert_eq!(layers[0]["name"], "capsule/lower-upper");
+    let pieces = layers[0]["layers"].as_array().expect("pieces");
+    assert_eq!(pieces.len(), 1);
+    assert_eq!(
+        pieces[0]["faces"].as_u64(),
+        Some(strap.triangles.len() as u64)
+    );
+    assert!(v["self_contact_pairs_left_out"]
+        .as_array()
+        .is_some_and(|l| l.is_empty()));
+    let fold_frames = v["fold_frames"].as_u64().expect("fold frames");
+    assert!(fold_frames >= 3, "{fold_frames}");
+    // Measured without the strap, whose overlap with the capsule is the model's: the fold
+    // leaves no penetrating vertex, and the capsule is a closed body again.
+    let m = &v["metrics"];
+    assert!(m["penetrating_before"]["value"].as_u64() > Some(0), "{m}");
+    assert_eq!(m["penetrating_after"]["value"].as_u64(), Some(0), "{m}");
+    let volume = m["volume_error"]["value"].as_f64().expect("volume error");
+    assert!(volume > 0.0 && volume < 1e-9, "{m}");
+    let text = pose_frames(&rig_path, &dir.join("text"), frames, &["--self-contact"]);
+    let text = String::from_utf8_lossy(&text.stdout);
+    assert!(
+        text.contains("run without the separate pieces of the mesh")
+            && text.contains("capsule/lower-upper (pieces of"),
+        "{text}"
+    );
+    pose_frames(&rig_path, &dir.join("plain"), frames, &["--no-contact"]);
+    pose_frames(&capsule, &dir.join("capsule"), frames, &["--self-contact"]);
+    let n = rig.bodies[0].positions.len();
+    for i in 0..11 {
+        let name = format!("frame_{i:04}.obj");
+        let read = |d: &str| {
+            obj_vertices(&std::fs::read_to_string(dir.join(d).join(&name)).expect("frame"))
+        };
+        let (with, plain, alone) = (read("self"), read("plain"), read("capsule"));
+        assert!(with[n..] == plain[n..], "{name}: the strap moved");
+        assert!(
+            with[..n] == alone[..],
+            "{name}: not the capsule's own output"
+        );
+    }
+    let info = cli(&["info", "--json", s(&rig_path)]);
+    let info: Value = serde_json::from_slice(&info.stdout).expect("info");
+    let pair = &info["self_contact"]["pairs"][0];
+    assert_eq!(
+        (
+            pair["left_out"].as_bool(),
+            pair["layers"].as_array().map(Vec::len)
+        ),
+        (Some(false), Some(1))
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

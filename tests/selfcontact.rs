@@ -13,7 +13,7 @@ use contact_skin::selfcontact::turn_guard::TurnReference;
 use contact_skin::selfcontact::{DirectionSource, RegionOptions};
 use contact_skin::skinning::Method;
 use nalgebra::{Matrix4, Point3, Vector3};
-use scenes::{double_sided, load, load_with, strapped, welded_positions, Loaded};
+use scenes::{double_sided, load, load_with, strapped, strapped_scaled, welded_positions, Loaded};
 
 fn self_pass(l: &Loaded, directions: &[(String, DirectionSource)]) -> SelfContactPass {
     self_pass_with(l, directions, FoldParams::default())
@@ -2211,7 +2211,10 @@ fn a_body_turned_inside_out_is_left_as_it_came() {
 }
 
 /// A strap layered across the capsule's joint, sunk into it at rest as a belt is modeled into
-/// a waist ([`scenes::strapped`]): the fold's two sides cross at rest. `pose` leaves such a
+/// a waist ([`scenes::strapped`]; welded to the capsule where the tilt's axis meets it, so in
+/// one piece with it: no separate piece to run without, unlike
+/// `a_layer_sunk_across_a_joint_is_left_to_the_skinning`): the fold's two sides cross at rest.
+/// `pose` leaves such a
 /// fold as it comes in every frame (its overlap is the model's; resolving it in every frame
 /// works against the model), unless the configuration enables it; the library resolves it by
 /// default, as it does pairs of bodies crossing at rest. A rig whose sides do not cross at
@@ -2280,4 +2283,55 @@ fn a_fold_crossing_at_rest_is_left_out_unless_enabled() {
         assert_eq!(a, b, "frame {f}");
         assert_eq!(c, input, "frame {f}: disabled");
     }
+}
+
+/// A strap sunk across the capsule's joint (a separate piece of the same mesh, crossing it
+/// at rest): the fold runs without it. Checked against the capsule alone, an independent
+/// run: every frame's capsule vertices as the plain capsule's output (its faces, regions and
+/// `β` are the same; only the volume solve reads the strap, whose terms do not move), the
+/// strap's the skinning's, and no capsule vertex left inside the capsule.
+#[test]
+fn a_layer_sunk_across_a_joint_is_left_to_the_skinning() {
+    let s = strapped_scaled("bending_capsule", 31, 0.25, 25.0, 1.02);
+    let l = load("bending_capsule", 31);
+    let name = "capsule/lower-upper".to_string();
+    let capsule_vertices = l.pre.welded[0].vertex_count();
+    let capsule_faces = l.triangles[0].len();
+    let strap_faces = s.triangles[0].len() - capsule_faces;
+    for rule in [RestOverlaps::Resolved, RestOverlaps::LeftOut] {
+        let pass = self_pass(&s, &[]).with_rest_overlaps(rule);
+        assert!(pass.crossing_at_rest().is_empty() && pass.left_out().is_empty());
+        let layers = pass.layers();
+        assert_eq!(layers.len(), 1, "{layers:?}");
+        assert_eq!((layers[0].body, &layers[0].name), (0, &name));
+        assert_eq!(layers[0].layers.len(), 1);
+        let layer = &layers[0].layers[0];
+        assert_eq!(layer.faces, strap_faces);
+        assert_eq!(layer.first_vertex as usize, capsule_vertices);
+    }
+    assert!(self_pass(&l, &[]).layers().is_empty());
+    let (strapped_pass, plain_pass) = (self_pass(&s, &[]), self_pass(&l, &[]));
+    let (mut worst, mut folded, mut inside) = (0.0_f64, 0, 0);
+    for f in (0..31).step_by(3) {
+        let pose = s.rig.pose_at(Some(0), s.times[f]);
+        let input = s.frame(f);
+        let mut out = input.clone();
+        let report = strapped_pass.run(&s.rig, &pose, &mut out).expect("runs");
+        let mut plain = l.frame(f);
+        let plain_report = plain_pass.run(&l.rig, &pose, &mut plain).expect("runs");
+        assert_eq!(report.folds.len(), plain_report.folds.len(), "frame {f}");
+        folded += usize::from(!report.folds.is_empty());
+        assert_eq!(
+            &out[0][capsule_vertices..],
+            &input[0][capsule_vertices..],
+            "frame {f}"
+        );
+        for (a, b) in out[0][..capsule_vertices].iter().zip(&plain[0]) {
+            worst = worst.max((a - b).norm() / l.h_rest);
+        }
+        let p = penetration(&l, 0, &out[0][..capsule_vertices]);
+        inside = inside.max(p.vertices);
+    }
+    println!("frames with a fold {folded}, largest gap to the plain capsule {worst:.2e} h, penetrating {inside}");
+    assert!(folded >= 5 && worst < 1e-9 && inside == 0);
 }

@@ -6,6 +6,7 @@ use contact_skin::contact::zones::DEFAULT_SAFEGUARD_ANGLE;
 use contact_skin::mesh::{TopologyReport, WeldedMesh};
 use contact_skin::pass::{rest_bodies, ContactPass, RestOverlaps, DEFAULT_EXTENT_FACTOR};
 use contact_skin::rig::{self, Rig};
+use contact_skin::selfcontact::layers::Layer;
 use contact_skin::selfcontact::pass::SelfContactPass;
 use contact_skin::selfcontact::{
     derive_pairs_reporting, extend_distinct, separated_from_skeleton, separated_regions,
@@ -139,6 +140,9 @@ struct SelfPairInfo {
     /// `pose` leaves it as it comes in every frame: its sides cross at rest (and
     /// `[[self_contact.pair]] enabled = true` does not resolve it), or `enabled = false`.
     left_out: bool,
+    /// The separate pieces of the mesh sunk into it at rest that it runs without (they
+    /// follow the skinning; `SelfContactPass::layers`).
+    layers: Vec<Layer>,
 }
 
 /// The self-contact pass as it would run: its parameters, resolved, and the joint pairs.
@@ -347,7 +351,11 @@ fn mark_left_out(
     };
     let left_out = pass.left_out();
     let crossing = pass.crossing_at_rest();
+    let layered = pass.layers();
     for p in pairs {
+        p.layers = (layered.iter())
+            .find(|f| f.body == p.body && f.name == p.name)
+            .map_or(Vec::new(), |f| f.layers.clone());
         let at_rest = crossing
             .iter()
             .find(|c| c.body == p.body && c.name == p.name);
@@ -463,6 +471,7 @@ fn pair_info(
         crossing_at_rest: None,
         failure_at_rest: None,
         left_out: false,
+        layers: Vec::new(),
         joint_size,
         extent: f.joint_extent.map_or(f.deform.extent, |k| k * joint_size),
         body: p.body,
@@ -578,6 +587,14 @@ fn print_self_contact(s: &SelfContactInfo) {
         println!("      {}", p.reason);
         if let Some(line) = left_out_line(p) {
             println!("      {line}");
+        }
+        if !p.layers.is_empty() {
+            let faces: Vec<String> = p.layers.iter().map(|l| l.faces.to_string()).collect();
+            println!(
+                "      runs without {} separate piece(s) of the mesh crossing it at rest ({} faces), which follow the skinning",
+                p.layers.len(),
+                faces.join(", ")
+            );
         }
     }
 }

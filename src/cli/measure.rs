@@ -148,6 +148,38 @@ pub struct FrameMetrics {
     pub non_finite: usize,
 }
 
+/// The surfaces the metrics read, per body: its welded triangles, without the layers the
+/// self-contact pass runs its folds without
+/// ([`contact_skin::selfcontact::pass::SelfContactPass::triangles_without_layers`]: pieces
+/// sunk into the skin as modeled, a belt or a collar, whose overlap with it is the model's
+/// and which no pass resolves), and whether each is closed.
+pub struct Surfaces {
+    triangles: Vec<Vec<[u32; 3]>>,
+    closed: Vec<bool>,
+}
+
+impl Surfaces {
+    /// The welded bodies of `pre`, each replaced by its surface in `without_layers` where
+    /// that has one (as many entries as bodies, or none).
+    pub fn new(pre: &Precomputed, without_layers: Vec<Option<Vec<[u32; 3]>>>) -> Self {
+        let mut without = without_layers.into_iter();
+        let (triangles, closed) = (pre.welded.iter())
+            .map(|w| match without.next().flatten() {
+                Some(t) => {
+                    let closed = contact_skin::mesh::closed_and_oriented(&t);
+                    (t, closed)
+                }
+                None => (w.triangles.clone(), w.closed),
+            })
+            .unzip();
+        Self { triangles, closed }
+    }
+
+    fn triangles(&self) -> Vec<&[[u32; 3]]> {
+        self.triangles.iter().map(Vec::as_slice).collect()
+    }
+}
+
 /// One frame measured, with its welded input and output (the bodies one after another), which
 /// the run's [`temporal`] measure needs.
 pub struct Measured {
@@ -163,14 +195,14 @@ impl Measured {
     /// Measures frame `frame` (`input`/`output`: welded positions per body, `skinned`: the
     /// skinning's welded normals) and keeps its positions.
     pub fn new(
-        pre: &Precomputed,
+        surfaces: &Surfaces,
         h: f64,
         frame: usize,
         input: &[Vec<Point3<f64>>],
         skinned: &[Vec<Vector3<f64>>],
         output: &[Vec<Point3<f64>>],
     ) -> Self {
-        let tris = triangles(pre);
+        let tris = surfaces.triangles();
         let before = penetration(input, &tris, h);
         // A frame the passes left alone (no contact, or `--no-contact`) is its input: measured
         // once.
@@ -185,7 +217,7 @@ impl Measured {
             penetrating_before: before.vertices,
             penetrating_after: after.vertices,
             max_depth_after_h: after.max_depth / h,
-            volume_error: volume_error(&tris, &closed_bodies(pre), input, output),
+            volume_error: volume_error(&tris, &surfaces.closed, input, output),
             inverted_faces: turned.against_input,
             turned_faces: turned.turned,
             non_finite: output.iter().map(|p| metrics::non_finite(p)).sum(),

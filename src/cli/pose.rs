@@ -6,14 +6,14 @@ use super::contact::{
     self, median, median_folds, median_stages, BoxError, ContactRun, FoldMs, SelfRun,
 };
 use super::frame_count;
-use super::measure::{self, Measured, RunMetrics};
+use super::measure::{self, Measured, RunMetrics, Surfaces};
 use super::CliResult;
 use contact_skin::frames::{self, Frame, Precomputed};
 use contact_skin::output::{self, glb, obj, Staged};
 use contact_skin::pass::{FailedContact, StageTimings};
 use contact_skin::rig::{self, Rig};
 use contact_skin::selfcontact::fold::FoldTimings;
-use contact_skin::selfcontact::pass::FailedFold;
+use contact_skin::selfcontact::pass::{FailedFold, FoldLayers};
 use contact_skin::skinning::Method;
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
@@ -173,6 +173,9 @@ struct Summary {
     /// Joint pairs of the pass left as they come in every frame: their two sides cross at
     /// rest (modeled overlaps), or the configuration disables them.
     self_contact_pairs_left_out: Vec<LeftOutFold>,
+    /// Joint pairs run without separate pieces of their mesh sunk into them at rest (a belt, a
+    /// collar: those follow the skinning), with the pieces.
+    self_contact_layers: Vec<FoldLayers>,
     /// Frames where the self-contact pass resolved at least one fold.
     fold_frames: usize,
     /// The pairs found folding into contact in some frame, in the pass's order.
@@ -272,6 +275,8 @@ struct Job<'a> {
     pb: ProgressBar,
     /// `--metrics`: the rest mean edge length `h`, the measures' length unit.
     h: Option<f64>,
+    /// `--metrics`: the surfaces measured (without the layers the folds run without).
+    surfaces: Option<Surfaces>,
     /// The run's file writes, stopped by an interrupt.
     writes: Arc<Writes>,
 }
@@ -359,6 +364,11 @@ pub fn run(a: &Args) -> CliResult {
         faces: obj::ObjFaces::of(&rig),
         pb: progress(times.len(), a.json),
         h: a.metrics.then(|| measure::rest_edge_length(&rig, &pre)),
+        surfaces: a.metrics.then(|| {
+            let self_run = contact.as_ref().and_then(|c| c.self_contact.as_ref());
+            let layers = self_run.map_or(Vec::new(), |s| s.pass.triangles_without_layers());
+            Surfaces::new(&pre, layers)
+        }),
         writes: Writes::stopped_on_interrupt(&a.out),
     };
     job.pb.set_message(format!("posing {}", a.rig.display()));
@@ -492,6 +502,7 @@ fn summarize(
         self_contact_pairs: pairs,
         self_contact_pairs_skipped: self_run.map_or(Vec::new(), |s| s.pass.skipped().to_vec()),
         self_contact_pairs_left_out: self_run.map_or(Vec::new(), left_out_folds),
+        self_contact_layers: self_run.map_or(Vec::new(), |s| s.pass.layers()),
         fold_frames: stats.iter().filter(|s| !s.folds.is_empty()).count(),
         folds,
         folds_without_direction: stats.iter().map(|s| s.folds_without_direction).sum(),
@@ -738,17 +749,35 @@ fn print_left_out_folds(folds: &[LeftOutFold]) {
         (false, None, Some(e)) => format!("{} (at rest: {e})", f.name),
         (false, None, None) => f.name.clone(),
     };
-    let listed: Vec<String> = folds.iter().take(8).map(why).collect();
-    let more = folds.len().saturating_sub(listed.len());
-    let more = if more > 0 {
-        format!(" and {more} more")
-    } else {
-        String::new()
+    println!(
+        "self-contact: {} joint pair(s) left as they come in every frame: {} ([[self_contact.pair]] enabled = true resolves one whose sides cross at rest)",
+        folds.len(),
+        first_eight(folds, why)
+    );
+}
+
+/// The first eight of `items` shown, then how many more: `a, b and 3 more`.
+fn first_eight<T>(items: &[T], show: impl Fn(&T) -> String) -> String {
+    let listed: Vec<String> = items.iter().take(8).map(show).collect();
+    match items.len() - listed.len() {
+        0 => listed.join(", "),
+        more => format!("{} and {more} more", listed.join(", ")),
+    }
+}
+
+/// The line on the pairs run without layers, if any.
+fn print_layers(folds: &[FoldLayers]) {
+    if folds.is_empty() {
+        return;
+    }
+    let show = |f: &FoldLayers| {
+        let faces: Vec<String> = f.layers.iter().map(|l| l.faces.to_string()).collect();
+        format!("{} (pieces of {} faces)", f.name, faces.join(", "))
     };
     println!(
-        "self-contact: {} joint pair(s) left as they come in every frame: {}{more} ([[self_contact.pair]] enabled = true resolves one whose sides cross at rest)",
+        "self-contact: {} joint pair(s) run without the separate pieces of the mesh sunk into them at rest, which follow the skinning: {}",
         folds.len(),
-        listed.join(", ")
+        first_eight(folds, show)
     );
 }
 
@@ -790,6 +819,7 @@ fn print_self_contact(s: &Summary) {
             println!("self-contact: skipped {reason}");
         }
         print_left_out_folds(&s.self_contact_pairs_left_out);
+        print_layers(&s.self_contact_layers);
         if s.folds_without_direction > 0 {
             println!(
                 "self-contact: {} fold(s) skipped without a direction (bones folded 180°, no common relative motion, or separated regions crossing symmetrically)",
@@ -894,7 +924,8 @@ fn measured(
     let welded = input.welded(job.pre);
     let normals = input.welded_normals(job.pre);
     let output = output.unwrap_or(&welded);
-    Some(Measured::new(job.pre, h, i, &welded, &normals, output))
+    let surfaces = job.surfaces.as_ref()?;
+    Some(Measured::new(surfaces, h, i, &welded, &normals, output))
 }
 
 /// [`compute`] before the check that its positions can be written: the frame, its

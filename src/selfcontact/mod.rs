@@ -24,7 +24,9 @@
 //!   direction field `d̄ = σ d̂_12`, both regions' deformation, the blend over `R` and one
 //!   volume solve on the blended positions, with the [`turn_guard`] scaling the displacement
 //!   back where it would turn faces over;
-//! - [`pass`]: every joint pair of a rig, frame by frame, in sweeps.
+//! - [`pass`]: every joint pair of a rig, frame by frame, in sweeps; a pair whose sides cross
+//!   at rest where separate pieces of the mesh meet runs without the smaller ones
+//!   ([`layers`]).
 //!
 //! The same machinery serves two working regions of one mesh that share no vertex
 //! ([`separated_regions`], named by a rig config: sibling joints such as two fingers, which no
@@ -37,6 +39,7 @@ pub mod crease;
 pub mod direction;
 pub mod fold;
 pub mod joint_tree;
+pub mod layers;
 pub mod partition;
 pub mod pass;
 pub mod regions;

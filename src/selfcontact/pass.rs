@@ -3,14 +3,18 @@
 //! output of a pair is the input of the next, in a fixed order), each only when it
 //! intersects itself; a frame without any fold costs one BVH refit per body and one
 //! self-overlap query per pair. A pair whose two sides already cross where the pass is built
-//! (a layer modeled through the skin across the joint) is resolved or left as it comes in
-//! every frame, as [`SelfContactPass::with_rest_overlaps`] says.
+//! only where separate pieces of the mesh meet (a belt sunk into the waist) runs without the
+//! smaller piece of each meeting ([`super::layers`], [`SelfContactPass::layers`]); one that
+//! crosses otherwise (a layer modeled through the skin in one piece, a broken mesh) is
+//! resolved or left as it comes in every frame, as [`SelfContactPass::with_rest_overlaps`]
+//! says.
 
 use super::direction::{BoneAxes, DirectionSource, Meeting};
 use super::fold::{
     resolve_detected_in, FoldError, FoldInput, FoldOutcome, FoldOutput, FoldParams, FoldPre,
     FoldTimings,
 };
+use super::layers::{Components, Layer};
 use super::regions::{derive_pairs_reporting, PairRegions, RegionOptions};
 use super::turn_guard::TurnReference;
 use super::SelfContactError;
@@ -46,6 +50,17 @@ struct Fold {
     /// Whether it runs whatever it does at rest ([`SelfContactPass::with_pair_enabled`]);
     /// `None`: as [`SelfContactPass::with_rest_overlaps`] says.
     enabled: Option<bool>,
+    /// The pieces of the body it runs without, sunk into it at rest ([`super::layers`]), and
+    /// their faces (ascending).
+    layers: Vec<Layer>,
+    layer_faces: Vec<u32>,
+    /// The mean rest edge length of the surface its inside-twice tree holds (the unit of the
+    /// further sweeps' penetration test).
+    tree_edge: f64,
+    /// Its inside-twice tree's slot in [`PosedBodies`]: the body's index for the body's
+    /// tree, shared by its folds; past the bodies for a fold run without layers, whose tree
+    /// leaves them out.
+    winding_slot: usize,
 }
 
 /// A fold whose two sides already cross at the rest positions the pass was built on
@@ -76,6 +91,18 @@ pub struct LeftOutFold {
     pub at_rest: Option<RestCrossing>,
     /// Disabled ([`SelfContactPass::with_pair_enabled`] with `false`).
     pub disabled: bool,
+}
+
+/// A fold run without pieces of its body sunk into it at rest
+/// ([`SelfContactPass::layers`], [`super::layers`]).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct FoldLayers {
+    /// The body.
+    pub body: usize,
+    /// The pair's name.
+    pub name: String,
+    /// The pieces (connected components of the welded mesh) it runs without.
+    pub layers: Vec<Layer>,
 }
 
 impl RestCrossing {
@@ -159,8 +186,6 @@ pub struct SelfContactPass {
     rest_normals: Vec<Vec<Vector3<f64>>>,
     representative: Vec<Vec<u32>>,
     rest_pose: Pose,
-    /// Mean rest edge length of each body, the unit of the sweeps' penetration test.
-    rest_edge: Vec<f64>,
     /// Each closed body's rest signed volume ([`SelfPassOutput::inside_out`]).
     rest_volumes: Vec<Option<RestVolume>>,
     passes: usize,
@@ -169,6 +194,10 @@ pub struct SelfContactPass {
     skipped: Vec<String>,
     /// What the pass does with the folds of [`SelfContactPass::crossing_at_rest`].
     rest_overlaps: RestOverlaps,
+    /// The body of each inside-twice tree a frame keeps ([`Fold::winding_slot`]: one per
+    /// body, then one per fold run without layers) and its surface's mean rest edge length:
+    /// further sweeps look for penetrating vertices tree by tree, in that unit.
+    slots: Vec<(usize, f64)>,
     /// Detection trees of finished frames, one set per body, each refit in place by a later
     /// frame ([`MeshIndex::refit_nodes_in`]) instead of copied from the index: as many sets as
     /// frames ran at once. Only their allocations are reused: every box is rewritten before a
@@ -281,7 +310,12 @@ impl SelfContactPass {
                 .map_err(|source| SelfPassError::Fold { name, source })?;
             built.push((body, pre, axes, direction));
         }
-        let folds = with_detection(built, rest, welded)?;
+        let folds = with_detection(rig, built, rest, welded)?;
+        let mut slots: Vec<(usize, f64)> = (rest.iter().zip(welded).enumerate())
+            .map(|(b, (r, w))| (b, mean_edge_length(r, &w.triangles)))
+            .collect();
+        let layered = folds.iter().filter(|f| !f.layers.is_empty());
+        slots.extend(layered.map(|f| (f.body, f.tree_edge)));
         let triangles = welded.iter().map(|w| w.triangles.clone()).collect();
         Ok(Self {
             folds,
@@ -295,11 +329,6 @@ impl SelfContactPass {
                 .collect(),
             representative: welded.iter().map(|w| w.representative.clone()).collect(),
             rest_pose: rig.pose_at(None, 0.0),
-            rest_edge: rest
-                .iter()
-                .zip(welded)
-                .map(|(r, w)| mean_edge_length(r, &w.triangles))
-                .collect(),
             rest_volumes: rest
                 .iter()
                 .zip(welded)
@@ -309,6 +338,7 @@ impl SelfContactPass {
             max_passes: DEFAULT_MAX_FOLD_PASSES,
             skipped,
             rest_overlaps: RestOverlaps::default(),
+            slots,
             spare_trees: Mutex::default(),
         })
     }
@@ -357,6 +387,45 @@ impl SelfContactPass {
                 name: f.pre.regions.pair.name.clone(),
                 at_rest: f.at_rest.clone(),
                 disabled: f.enabled == Some(false),
+            })
+            .collect()
+    }
+
+    /// The folds whose sides cross at rest only where separate pieces of the mesh meet (a
+    /// belt or a collar sunk into the skin, [`super::layers`]), which run without the smaller
+    /// piece of each such meeting, and so no longer cross at rest; in fold order.
+    pub fn layers(&self) -> Vec<FoldLayers> {
+        (self.folds.iter())
+            .filter(|f| !f.layers.is_empty())
+            .map(|f| FoldLayers {
+                body: f.body,
+                name: f.pre.regions.pair.name.clone(),
+                layers: f.layers.clone(),
+            })
+            .collect()
+    }
+
+    /// Per body, its welded triangles without the layers its folds run without
+    /// ([`SelfContactPass::layers`]: pieces sunk into it as modeled, whose overlap with the
+    /// skin no fold resolves), `None` for a body without any: the surface on which what the
+    /// pass leaves is measured.
+    pub fn triangles_without_layers(&self) -> Vec<Option<Vec<[u32; 3]>>> {
+        let mut left: Vec<Vec<bool>> = vec![Vec::new(); self.triangles.len()];
+        for fold in self.folds.iter().filter(|f| !f.layer_faces.is_empty()) {
+            let flags = &mut left[fold.body];
+            flags.resize(self.triangles[fold.body].len(), false);
+            for &f in &fold.layer_faces {
+                flags[f as usize] = true;
+            }
+        }
+        (left.iter().zip(&self.triangles))
+            .map(|(flags, tris)| {
+                (!flags.is_empty()).then(|| {
+                    (tris.iter().zip(flags))
+                        .filter(|(_, &l)| !l)
+                        .map(|(t, _)| *t)
+                        .collect()
+                })
             })
             .collect()
     }
@@ -557,7 +626,7 @@ impl SelfContactPass {
             .lock()
             .ok()
             .and_then(|mut spare| spare.pop());
-        let mut bodies = PosedBodies::new(positions, trees);
+        let mut bodies = PosedBodies::new(positions, trees, self.slots.len());
         let out = self.sweeps(rig, pose, normals, &mut bodies);
         if let Ok(mut spare) = self.spare_trees.lock() {
             spare.push(bodies.into_trees());
@@ -578,7 +647,7 @@ impl SelfContactPass {
         // The positions before any fold, copied when the first fold is detected: the turn
         // guard's reference.
         let mut frame_input = None;
-        let mut further = FurtherSweeps::new(self.triangles.len());
+        let mut further = FurtherSweeps::new(self.slots.len());
         // Per fold, whether it runs in this sweep: all in the first sweeps, in further ones
         // those whose working regions hold a penetrating vertex. A fold that still touches
         // without one is left as it is (before 2026-12-03 every fold ran again: the same
@@ -603,8 +672,8 @@ impl SelfContactPass {
                     }
                 };
                 if moved_now && self.max_passes > self.passes {
-                    add_shared_region(&mut further.reach[fold.body], &fold.pre.regions);
-                    further.moved[fold.body] = true;
+                    add_shared_region(&mut further.reach[fold.winding_slot], &fold.pre.regions);
+                    further.moved[fold.winding_slot] = true;
                 }
                 changed |= moved_now;
             }
@@ -660,30 +729,32 @@ impl SelfContactPass {
         Ok(())
     }
 
-    /// Per fold, whether it runs and its working regions hold one of its body's `flagged`
-    /// vertices.
+    /// Per fold, whether it runs and its working regions hold one of the `flagged` vertices
+    /// of its tree ([`Fold::winding_slot`]).
     fn folds_holding(&self, flagged: &[Vec<u32>]) -> Vec<bool> {
         let holds = |fold: &Fold| {
             let regions = &fold.pre.regions;
             self.runs(fold)
-                && (flagged[fold.body].iter())
+                && (flagged[fold.winding_slot].iter())
                     .any(|&v| regions.w1[v as usize] || regions.w2[v as usize])
         };
         self.folds.iter().map(holds).collect()
     }
 
-    /// Per body, its penetrating vertices among those its folds can `reach` (the shared
+    /// Per inside-twice tree ([`Fold::winding_slot`]: one per body, one per fold run without
+    /// layers), its body's penetrating vertices among those its folds can `reach` (the shared
     /// regions of the folds that moved this frame; see [`SelfContactPass::with_max_passes`]),
-    /// queried on the body's tree that the folds keep, refit to the body's positions.
+    /// queried on that tree, refit to the body's positions.
     fn penetrating(&self, bodies: &mut PosedBodies, reach: &[Vec<bool>]) -> Vec<Vec<u32>> {
         (0..reach.len())
-            .map(|b| {
-                if reach[b].is_empty() {
+            .map(|slot| {
+                if reach[slot].is_empty() {
                     return Vec::new();
                 }
+                let (b, edge) = self.slots[slot];
                 let t = &self.triangles[b];
-                let (p, normals, tree) = bodies.refit_winding(b, t);
-                penetrating_among(&tree, p, t, normals, self.rest_edge[b], &reach[b])
+                let (p, normals, tree) = bodies.refit_winding(slot, b, t);
+                penetrating_among(&tree, p, t, normals, edge, &reach[slot])
             })
             .collect()
     }
@@ -801,7 +872,8 @@ impl SelfContactPass {
             .is_some()
             .then_some(frame_input.as_deref())
             .flatten();
-        let (pos, normals, winding) = bodies.for_fold(fold.body, tris, || fold.pre.body_tree());
+        let (pos, normals, winding) =
+            bodies.for_fold(fold.winding_slot, fold.body, tris, || fold.pre.body_tree());
         let normal = |v: usize| skinned.as_ref().map_or_else(Vector3::zeros, |s| s.at(v));
         let input = FoldInput {
             positions: pos,
@@ -813,7 +885,7 @@ impl SelfContactPass {
                 normal: &normal,
             }),
             left_penetrating: left_penetrating
-                .get(fold.body)
+                .get(fold.winding_slot)
                 .filter(|left| !left.is_empty())
                 .map(Vec::as_slice),
         };
@@ -897,26 +969,27 @@ fn check_normals(
     Ok(())
 }
 
-/// What decides the further sweeps of a frame ([`SelfContactPass::with_max_passes`]), per body
-/// so that what a body gets does not depend on the others.
+/// What decides the further sweeps of a frame ([`SelfContactPass::with_max_passes`]), per
+/// inside-twice tree ([`Fold::winding_slot`]: per body, and per fold run without layers) so
+/// that what a body gets does not depend on the others.
 struct FurtherSweeps {
-    /// Per body: the vertices of the shared regions of the folds that moved this frame (empty
-    /// until one does, and again once the body is done), where further sweeps act.
+    /// Per tree: the vertices of the shared regions of its folds that moved this frame (empty
+    /// until one does, and again once the tree is done), where further sweeps act.
     reach: Vec<Vec<bool>>,
-    /// Per body, whether a fold moved it in the sweep just run.
+    /// Per tree, whether one of its folds moved its body in the sweep just run.
     moved: Vec<bool>,
-    /// Per body, per vertex: whether the last sweep left it penetrating (empty before the
-    /// first further sweep and for a body done): a further sweep does not pin these crease
+    /// Per tree, per vertex: whether the last sweep left it penetrating (empty before the
+    /// first further sweep and for a tree done): a further sweep does not pin these crease
     /// vertices again ([`FoldInput::left_penetrating`]).
     left: Vec<Vec<bool>>,
 }
 
 impl FurtherSweeps {
-    fn new(bodies: usize) -> Self {
+    fn new(slots: usize) -> Self {
         Self {
-            reach: vec![Vec::new(); bodies],
-            moved: vec![false; bodies],
-            left: vec![Vec::new(); bodies],
+            reach: vec![Vec::new(); slots],
+            moved: vec![false; slots],
+            left: vec![Vec::new(); slots],
         }
     }
 
@@ -994,12 +1067,18 @@ struct PosedBodies<'p> {
 impl<'p> PosedBodies<'p> {
     /// `trees`: a frame's detection trees to refit in place (one per body, `None` where there
     /// is none yet), or `None` (each tree copied from its index at its first detection).
-    fn new(positions: &'p mut [Vec<Point3<f64>>], trees: Option<Vec<Option<TriangleBvh>>>) -> Self {
+    /// `slots`: the inside-twice trees the frame keeps (at least one per body; see
+    /// [`Fold::winding_slot`]).
+    fn new(
+        positions: &'p mut [Vec<Point3<f64>>],
+        trees: Option<Vec<Option<TriangleBvh>>>,
+        slots: usize,
+    ) -> Self {
         let trees = trees
             .filter(|t| t.len() == positions.len())
             .unwrap_or_else(|| vec![None; positions.len()]);
         let fitted = vec![false; positions.len()];
-        let windings = vec![None; positions.len()];
+        let windings = vec![None; slots.max(positions.len())];
         let normals = vec![None; positions.len()];
         Self {
             positions,
@@ -1011,31 +1090,33 @@ impl<'p> PosedBodies<'p> {
     }
 
     /// Positions of `body`, their vertex normals (computed once per positions: most folds
-    /// detected in a frame leave the body as they found it) and its winding-number tree
-    /// (`rest_tree` the first time in the frame).
+    /// detected in a frame leave the body as they found it) and the winding-number tree of
+    /// `slot` ([`Fold::winding_slot`]; `rest_tree` the first time in the frame).
     fn for_fold(
         &mut self,
+        slot: usize,
         body: usize,
         triangles: &[[u32; 3]],
         rest_tree: impl FnOnce() -> WindingNumber,
     ) -> (&[Point3<f64>], &[Vector3<f64>], &mut WindingNumber) {
-        let tree = self.windings[body].get_or_insert_with(rest_tree);
+        let tree = self.windings[slot].get_or_insert_with(rest_tree);
         let positions = &self.positions[body];
         let normals = normals_of(&mut self.normals[body], positions, triangles);
         (positions, normals, tree)
     }
 
-    /// Positions of `body`, their normals (the folds', [`PosedBodies::for_fold`]) and its
-    /// winding-number tree refit to them: the folds' (β = 1.5, see [`PosedBodies::for_fold`]),
-    /// else (no fold resolved on the body, or a non-finite position that the refit refuses)
-    /// one built on them with the metric's β.
+    /// Positions of `body`, their normals (the folds', [`PosedBodies::for_fold`]) and the
+    /// winding-number tree of `slot` refit to them: the folds' (β = 1.5, see
+    /// [`PosedBodies::for_fold`]), else (no fold resolved with it, or a non-finite position
+    /// that the refit refuses) one of the whole body built on them with the metric's β.
     fn refit_winding(
         &mut self,
+        slot: usize,
         body: usize,
         triangles: &[[u32; 3]],
     ) -> (&[Point3<f64>], &[Vector3<f64>], Cow<'_, WindingNumber>) {
         let positions = &self.positions[body];
-        let slot = &mut self.windings[body];
+        let slot = &mut self.windings[slot];
         let refit = slot
             .as_mut()
             .is_some_and(|tree| tree.refit_changed(positions, triangles));
@@ -1107,6 +1188,7 @@ fn normals_of<'s>(
 /// The folds with their detection: one index per body with a fold, over the faces of all its
 /// folds' sides (the rest of the body is never queried), each fold's sides marked in it.
 fn with_detection(
+    rig: &Rig,
     built: Vec<(usize, FoldPre, BoneAxes, DirectionSource)>,
     rest: &[Vec<Point3<f64>>],
     welded: &[WeldedMesh],
@@ -1139,19 +1221,84 @@ fn with_detection(
             params: None,
             at_rest: None,
             enabled: None,
+            layers: Vec::new(),
+            layer_faces: Vec::new(),
+            tree_edge: 0.0,
+            winding_slot: body,
         });
     }
     let mut positions = rest.to_vec();
-    let mut bodies = PosedBodies::new(&mut positions, None);
+    let mut bodies = PosedBodies::new(&mut positions, None, welded.len());
+    let mut components: Vec<Option<Components>> = vec![None; welded.len()];
+    let mut slots = welded.len();
     for fold in &mut folds {
-        fold.at_rest = crossing_at(fold, &mut bodies);
+        let (at_rest, face_pairs) = crossing_at(fold, &mut bodies);
+        fold.at_rest = at_rest;
+        if face_pairs.is_empty() {
+            continue;
+        }
+        let (body, triangles) = (fold.body, &welded[fold.body].triangles);
+        let components =
+            components[body].get_or_insert_with(|| Components::of(&rest[body], triangles));
+        let layers = components.layers_of(&face_pairs);
+        if layers.is_empty() {
+            continue;
+        }
+        let without = without_layers(rig, fold, &rest[body], &welded[body], components, &layers);
+        if let Some(mut without) = without {
+            if crossing_at(&without, &mut bodies).0.is_none() {
+                without.winding_slot = slots;
+                slots += 1;
+                *fold = without;
+            }
+        }
     }
     Ok(folds)
 }
 
+/// `fold` without the pieces `layers` of its body ([`super::layers`]), when its regions keep
+/// both sides and it can be precomputed without them (else it stays as it is, crossing at
+/// rest).
+fn without_layers(
+    rig: &Rig,
+    fold: &Fold,
+    rest: &[Point3<f64>],
+    welded: &WeldedMesh,
+    components: &Components,
+    layers: &[u32],
+) -> Option<Fold> {
+    let triangles = &welded.triangles;
+    let removed = components.faces_in(layers);
+    let regions = fold.pre.regions.without_faces(triangles, &removed)?;
+    let pre = FoldPre::without_layers(rest, triangles, regions, &removed).ok()?;
+    let kept: Vec<[u32; 3]> = (triangles.iter().zip(&removed))
+        .filter(|(_, &r)| !r)
+        .map(|(t, _)| *t)
+        .collect();
+    let axes = BoneAxes::new(rig, welded, &pre.regions);
+    Some(Fold {
+        body: fold.body,
+        sets: pre.face_sets(&fold.detection),
+        detection: Arc::clone(&fold.detection),
+        pre,
+        axes,
+        direction: fold.direction,
+        params: None,
+        at_rest: None,
+        enabled: None,
+        layers: layers.iter().map(|&c| components.part(c).clone()).collect(),
+        layer_faces: (0..removed.len() as u32)
+            .filter(|&f| removed[f as usize])
+            .collect(),
+        tree_edge: mean_edge_length(rest, &kept),
+        winding_slot: fold.body,
+    })
+}
+
 /// How `fold`'s two sides meet at `bodies`' positions, when they cross there (the frames'
-/// detection, [`FoldPre::detect_on`]; a detection that fails is a crossing with its reason).
-fn crossing_at(fold: &Fold, bodies: &mut PosedBodies) -> Option<RestCrossing> {
+/// detection, [`FoldPre::detect_on`]; a detection that fails is a crossing with its reason),
+/// and the crossing face pairs.
+fn crossing_at(fold: &Fold, bodies: &mut PosedBodies) -> (Option<RestCrossing>, Vec<[u32; 2]>) {
     let crossing = |face_pairs, failure| RestCrossing {
         body: fold.body,
         name: fold.pre.regions.pair.name.clone(),
@@ -1160,12 +1307,12 @@ fn crossing_at(fold: &Fold, bodies: &mut PosedBodies) -> Option<RestCrossing> {
     };
     let detected = match bodies.posed(fold.body, &fold.detection) {
         Ok(posed) => fold.pre.detect_on(&posed, &fold.sets, Instant::now()),
-        Err(e) => return Some(crossing(0, Some(e.to_string()))),
+        Err(e) => return (Some(crossing(0, Some(e.to_string()))), Vec::new()),
     };
     match detected {
-        Ok(None) => None,
-        Ok(Some(d)) => Some(crossing(d.face_pairs.len(), None)),
-        Err(e) => Some(crossing(0, Some(e.to_string()))),
+        Ok(None) => (None, Vec::new()),
+        Ok(Some(d)) => (Some(crossing(d.face_pairs.len(), None)), d.face_pairs),
+        Err(e) => (Some(crossing(0, Some(e.to_string()))), Vec::new()),
     }
 }
 
@@ -1301,7 +1448,7 @@ mod tests {
         };
         let index = MeshIndex::new(&at(0.0), &tris).expect("index");
         let mut positions = vec![at(0.0)];
-        let mut bodies = PosedBodies::new(&mut positions, None);
+        let mut bodies = PosedBodies::new(&mut positions, None, 1);
         let low_x = |b: &mut PosedBodies| {
             let posed = b.posed(0, &index).expect("finite positions");
             posed.bvh().root_box().expect("a face").min.x
@@ -1312,7 +1459,7 @@ mod tests {
         assert_eq!(low_x(&mut bodies), 5.0);
         let trees = bodies.into_trees();
         let mut next_frame = vec![at(-3.0)];
-        let mut bodies = PosedBodies::new(&mut next_frame, Some(trees));
+        let mut bodies = PosedBodies::new(&mut next_frame, Some(trees), 1);
         assert_eq!(low_x(&mut bodies), -3.0);
         // A non-finite position is refused, and the tree is refit once it is finite again.
         bodies.replace(0, &at(f64::NAN));
@@ -1334,9 +1481,9 @@ mod tests {
         // The same triangle turned to face +x.
         let turned: Vec<Point3<f64>> = flat.iter().map(|p| Point3::new(0.0, p.x, p.y)).collect();
         let mut positions = vec![flat];
-        let mut bodies = PosedBodies::new(&mut positions, None);
+        let mut bodies = PosedBodies::new(&mut positions, None, 1);
         let rest = || WindingNumber::new(&[], &[]);
-        let normal = |b: &mut PosedBodies| b.for_fold(0, &tris, rest).1[0];
+        let normal = |b: &mut PosedBodies| b.for_fold(0, 0, &tris, rest).1[0];
         assert_eq!(normal(&mut bodies), Vector3::z());
         assert_eq!(normal(&mut bodies), Vector3::z());
         bodies.replace(0, &turned);

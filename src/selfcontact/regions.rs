@@ -150,6 +150,58 @@ impl PairRegions {
     pub fn separated(&self) -> bool {
         self.shared.is_empty()
     }
+
+    /// The same regions without the faces `removed` marks (per face of `triangles`): whole
+    /// connected components of the mesh ([`super::layers`]), whose vertices leave `W1`, `W2`
+    /// and `R` with them. `β` is kept on the rest: the harmonic solve does not couple
+    /// components that share no vertex. `None` when `W1` or `W2` is left empty, or `R` for a
+    /// pair that had one.
+    pub fn without_faces(&self, triangles: &[[u32; 3]], removed: &[bool]) -> Option<Self> {
+        let n = self.w1.len();
+        let kept = |faces: &[u32]| -> (Vec<u32>, Vec<bool>) {
+            let faces: Vec<u32> = (faces.iter().copied())
+                .filter(|&f| !removed.get(f as usize).copied().unwrap_or(false))
+                .collect();
+            let mut corners = vec![false; n];
+            for &f in &faces {
+                for &v in triangles.get(f as usize).into_iter().flatten() {
+                    if let Some(c) = corners.get_mut(v as usize) {
+                        *c = true;
+                    }
+                }
+            }
+            (faces, corners)
+        };
+        let (w1_faces, w1) = kept(&self.w1_faces);
+        let (w2_faces, w2) = kept(&self.w2_faces);
+        let (shared_faces, _) = kept(&self.shared_faces);
+        let shared: Vec<u32> = (self.shared.iter().copied())
+            .filter(|&v| w1[v as usize] && w2[v as usize])
+            .collect();
+        if w1_faces.is_empty() || w2_faces.is_empty() || shared.is_empty() != self.separated() {
+            return None;
+        }
+        let beta = (self.beta.iter().enumerate())
+            .map(|(v, &b)| if w1[v] || w2[v] { b } else { 0.0 })
+            .collect();
+        let left = removed.iter().filter(|&&r| r).count();
+        Some(Self {
+            pair: self.pair.clone(),
+            w1_faces,
+            w2_faces,
+            w1,
+            w2,
+            shared,
+            shared_faces,
+            beta,
+            partition: self.partition.clone(),
+            grow_rings: self.grow_rings,
+            reason: format!(
+                "{}; without {left} faces of layers crossing it at rest",
+                self.reason
+            ),
+        })
+    }
 }
 
 /// Working regions of every parent/child joint pair that deforms a body, body by body, in the

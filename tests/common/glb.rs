@@ -163,3 +163,85 @@ fn with_accessors_rewritten(
         }
     })
 }
+
+/// `glb` with a triangle primitive appended to mesh `mesh`: `POSITION` and `NORMAL` (`f32`),
+/// `JOINTS_0` (`u16`) and `WEIGHTS_0` (`f32`, four influences per vertex, the heaviest kept)
+/// and `u32` indices, in new buffer views at the end of the BIN chunk.
+pub fn with_primitive_appended(
+    glb: &[u8],
+    mesh: usize,
+    positions: &[[f64; 3]],
+    normals: &[[f64; 3]],
+    weights: &[Vec<(u16, f64)>],
+    triangles: &[[u32; 3]],
+) -> Vec<u8> {
+    let f32s = |v: &[[f64; 3]]| -> Vec<u8> {
+        v.iter()
+            .flatten()
+            .flat_map(|&x| (x as f32).to_le_bytes())
+            .collect()
+    };
+    let four = |row: &Vec<(u16, f64)>| -> [(u16, f64); 4] {
+        let mut row = row.clone();
+        row.sort_by(|a, b| b.1.total_cmp(&a.1));
+        row.resize(4, (0, 0.0));
+        [row[0], row[1], row[2], row[3]]
+    };
+    let joints: Vec<u8> = (weights.iter().flat_map(&four))
+        .flat_map(|(j, _)| j.to_le_bytes())
+        .collect();
+    let values: Vec<u8> = (weights.iter().flat_map(four))
+        .flat_map(|(_, w)| (w as f32).to_le_bytes())
+        .collect();
+    let indices: Vec<u8> = triangles
+        .iter()
+        .flatten()
+        .flat_map(|i| i.to_le_bytes())
+        .collect();
+    let (lo, hi) = positions
+        .iter()
+        .fold(([f64::MAX; 3], [f64::MIN; 3]), |(lo, hi), p| {
+            (
+                [0, 1, 2].map(|k| lo[k].min(p[k] as f32 as f64)),
+                [0, 1, 2].map(|k| hi[k].max(p[k] as f32 as f64)),
+            )
+        });
+    let n = positions.len();
+    let parts: [(Vec<u8>, u64, &str, usize); 5] = [
+        (f32s(positions), 5126, "VEC3", n),
+        (f32s(normals), 5126, "VEC3", n),
+        (joints, 5123, "VEC4", n),
+        (values, 5126, "VEC4", n),
+        (indices, 5125, "SCALAR", triangles.len() * 3),
+    ];
+    let data: Vec<u8> = parts.iter().flat_map(|p| p.0.clone()).collect();
+    with_bin_appended(glb, &data, |j, offset| {
+        let mut ids = Vec::new();
+        let mut at = offset;
+        for (k, (bytes, component, kind, count)) in parts.iter().enumerate() {
+            let views = j["bufferViews"].as_array_mut().expect("buffer views");
+            views.push(
+                serde_json::json!({"buffer": 0, "byteOffset": at, "byteLength": bytes.len()}),
+            );
+            let view = views.len() - 1;
+            let mut accessor = serde_json::json!({
+                "bufferView": view, "componentType": component, "count": count, "type": kind,
+            });
+            if k == 0 {
+                accessor["min"] = serde_json::json!(lo);
+                accessor["max"] = serde_json::json!(hi);
+            }
+            let accessors = j["accessors"].as_array_mut().expect("accessors");
+            accessors.push(accessor);
+            ids.push(accessors.len() - 1);
+            at += bytes.len();
+        }
+        let primitive = serde_json::json!({
+            "attributes": {"POSITION": ids[0], "NORMAL": ids[1], "JOINTS_0": ids[2], "WEIGHTS_0": ids[3]},
+            "indices": ids[4],
+        });
+        (j["meshes"][mesh]["primitives"].as_array_mut())
+            .expect("primitives")
+            .push(primitive);
+    })
+}

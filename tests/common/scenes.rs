@@ -60,49 +60,89 @@ pub fn committed_bytes(name: &str) -> Vec<u8> {
 /// plane through its rest box's centre square to its longest side, copied (with their
 /// vertices' skin weights and normals) and tilted by `degrees` about an axis of that plane
 /// through the centre, so that the strap crosses the body's surface at rest on both sides of
-/// the joint. The copy is an open surface in the same body and primitive.
+/// the joint. The copy is an open surface in the same body and primitive, welded to the body
+/// where the tilt's axis meets its surface (its vertices there do not move): one piece with
+/// it.
 pub fn strapped(name: &str, frames: usize, half_width: f64, degrees: f64) -> Loaded {
+    strapped_scaled(name, frames, half_width, degrees, 1.0)
+}
+
+/// [`strapped`] with the strap also scaled by `scale` about the centre: a separate piece of
+/// the mesh (no vertex of it on the body's) when `scale` is not 1, as a belt is.
+pub fn strapped_scaled(
+    name: &str,
+    frames: usize,
+    half_width: f64,
+    degrees: f64,
+    scale: f64,
+) -> Loaded {
     let mut rig = load(name, frames).rig;
     let body = &mut rig.bodies[0];
-    let (lo, hi) = body.positions.iter().fold(
-        (Point3::from([f64::MAX; 3]), Point3::from([f64::MIN; 3])),
-        |(lo, hi), p| (lo.inf(p), hi.sup(p)),
-    );
-    let centre = nalgebra::center(&lo, &hi);
-    let axis = (hi - lo).iamax();
-    let in_band = |v: u32| (body.positions[v as usize][axis] - centre[axis]).abs() < half_width;
-    let band: Vec<[u32; 3]> = (body.triangles.iter().copied())
-        .filter(|t| t.iter().all(|&v| in_band(v)))
-        .collect();
-    let tilt = nalgebra::Rotation3::from_axis_angle(
-        &Vector3::ith_axis((axis + 1) % 3),
-        degrees.to_radians(),
-    );
-    let mut copy_of = std::collections::HashMap::new();
-    let mut strap = Vec::with_capacity(band.len());
-    for t in band {
-        strap.push(t.map(|v| {
-            *copy_of.entry(v).or_insert_with(|| {
-                let (joints, weights) = body.weights.row_slices(v as usize);
-                let row: Vec<(u16, f64)> = joints
-                    .iter()
-                    .copied()
-                    .zip(weights.iter().copied())
-                    .collect();
-                body.weights.push_row(&row);
-                let p = body.positions[v as usize];
-                body.positions.push(centre + tilt * (p - centre));
-                body.normals.push(tilt * body.normals[v as usize]);
-                (body.positions.len() - 1) as u32
-            })
-        }));
+    let strap = Strap::of(body, half_width, degrees, scale);
+    let first = body.positions.len() as u32;
+    for row in &strap.weights {
+        body.weights.push_row(row);
     }
-    body.triangles.extend(strap);
+    body.positions.extend(&strap.positions);
+    body.normals.extend(&strap.normals);
+    (body.triangles).extend(strap.triangles.iter().map(|t| t.map(|v| v + first)));
     if let Some(last) = body.primitives.last_mut() {
         last.vertex_count = body.positions.len() - last.first_vertex;
         last.triangle_count = body.triangles.len() - last.first_triangle;
     }
     prepare(rig, frames, Method::Lbs)
+}
+
+/// The strap of [`strapped_scaled`] on its own: vertices (positions, normals, skin weight
+/// rows) and triangles indexing them.
+pub struct Strap {
+    pub positions: Vec<Point3<f64>>,
+    pub normals: Vec<Vector3<f64>>,
+    pub weights: Vec<Vec<(u16, f64)>>,
+    pub triangles: Vec<[u32; 3]>,
+}
+
+impl Strap {
+    /// The strap of `body` (see [`strapped`] and [`strapped_scaled`]).
+    pub fn of(body: &rig::Body, half_width: f64, degrees: f64, scale: f64) -> Self {
+        let (lo, hi) = body.positions.iter().fold(
+            (Point3::from([f64::MAX; 3]), Point3::from([f64::MIN; 3])),
+            |(lo, hi), p| (lo.inf(p), hi.sup(p)),
+        );
+        let centre = nalgebra::center(&lo, &hi);
+        let axis = (hi - lo).iamax();
+        let in_band = |v: u32| (body.positions[v as usize][axis] - centre[axis]).abs() < half_width;
+        let tilt = nalgebra::Rotation3::from_axis_angle(
+            &Vector3::ith_axis((axis + 1) % 3),
+            degrees.to_radians(),
+        );
+        let mut strap = Strap {
+            positions: Vec::new(),
+            normals: Vec::new(),
+            weights: Vec::new(),
+            triangles: Vec::new(),
+        };
+        let mut copy_of = std::collections::HashMap::new();
+        for t in body
+            .triangles
+            .iter()
+            .filter(|t| t.iter().all(|&v| in_band(v)))
+        {
+            let copied = t.map(|v| {
+                *copy_of.entry(v).or_insert_with(|| {
+                    let (joints, weights) = body.weights.row_slices(v as usize);
+                    let row = joints.iter().copied().zip(weights.iter().copied());
+                    strap.weights.push(row.collect());
+                    let p = body.positions[v as usize];
+                    strap.positions.push(centre + tilt * (p - centre) * scale);
+                    strap.normals.push(tilt * body.normals[v as usize]);
+                    (strap.positions.len() - 1) as u32
+                })
+            });
+            strap.triangles.push(copied);
+        }
+        strap
+    }
 }
 
 /// A committed rig's copy with every body made double-sided, as exporters make a two-sided

@@ -282,7 +282,18 @@ impl WindingNumber {
     /// slower; a non-finite or negative β is taken as [`WINDING_BETA`]; β = ∞ is the brute
     /// force).
     pub fn with_beta(positions: &[Point3<f64>], triangles: &[[u32; 3]], beta: f64) -> Self {
-        let (bvh, skipped) = Bvh::build(positions, triangles, 0..triangles.len() as u32);
+        Self::with_faces_beta(positions, triangles, 0..triangles.len() as u32, beta)
+    }
+
+    /// [`WindingNumber::with_beta`] for the surface of `faces` alone (indices into
+    /// `triangles`, which refits and queries read with these faces only).
+    pub fn with_faces_beta(
+        positions: &[Point3<f64>],
+        triangles: &[[u32; 3]],
+        faces: impl Iterator<Item = u32>,
+        beta: f64,
+    ) -> Self {
+        let (bvh, skipped) = Bvh::build(positions, triangles, faces);
         let moments: Vec<Moments> = bvh
             .nodes
             .par_iter()

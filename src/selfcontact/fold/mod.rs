@@ -226,9 +226,10 @@ pub fn resolve_detected_in(
         ..FoldTimings::default()
     };
     let mut laps = Laps::start();
+    let surface = pre.inside_surface(triangles);
     let inside = winding
         .refit_changed(positions, triangles)
-        .then(|| InsideTwice::new(std::borrow::Cow::Borrowed(&*winding), positions, triangles));
+        .then(|| InsideTwice::new(std::borrow::Cow::Borrowed(&*winding), positions, surface));
     let tree = inside.as_ref();
     let separated = pre.regions.separated();
     // Separated regions have no cut: their sides are apart by construction.

@@ -35,6 +35,9 @@ pub struct FoldPre {
     /// once at rest, their trees refit per frame (built per frame until 2026-12-04).
     pub(super) separated_parts: Option<[MeshIndex; 2]>,
     pub(super) closed: bool,
+    /// The body's triangles without the layers it runs without ([`FoldPre::without_layers`]),
+    /// the surface its inside-twice test reads; `None`: the whole body's.
+    pub(super) without_layers: Option<Vec<[u32; 3]>>,
     /// The body's winding-number tree at rest ([`FoldPre::body_winding`]), shared by the
     /// body's folds.
     pub(super) winding: Arc<WindingNumber>,
@@ -92,6 +95,47 @@ impl FoldPre {
         regions: PairRegions,
         winding: Arc<WindingNumber>,
     ) -> Result<Self, FoldError> {
+        // Only the topology is needed here (no factorization of the whole mesh).
+        let closed = crate::mesh::Region::whole(triangles).is_closed();
+        Self::build(rest, triangles, regions, winding, closed)
+    }
+
+    /// The surface the inside-twice test reads, of the body's `triangles`: without the
+    /// layers the fold runs without ([`FoldPre::without_layers`]).
+    pub(super) fn inside_surface<'t>(&'t self, triangles: &'t [[u32; 3]]) -> &'t [[u32; 3]] {
+        self.without_layers.as_deref().unwrap_or(triangles)
+    }
+
+    /// A fold on the body without the faces `layers` marks (per face: pieces of the mesh
+    /// sunk into it at rest, [`crate::selfcontact::layers`]): `regions` must already be
+    /// without them ([`PairRegions::without_faces`]); its inside-twice tree and its
+    /// closed-surface test leave them out too. The volume solve still reads the whole body:
+    /// the layers do not move, so they change no volume difference.
+    pub fn without_layers(
+        rest: &[Point3<f64>],
+        triangles: &[[u32; 3]],
+        regions: PairRegions,
+        layers: &[bool],
+    ) -> Result<Self, FoldError> {
+        let kept = || {
+            (0..triangles.len() as u32)
+                .filter(|&f| !layers.get(f as usize).copied().unwrap_or(false))
+        };
+        let winding = WindingNumber::with_faces_beta(rest, triangles, kept(), INSIDE_BETA);
+        let kept_triangles: Vec<[u32; 3]> = kept().map(|f| triangles[f as usize]).collect();
+        let closed = crate::mesh::Region::whole(&kept_triangles).is_closed();
+        let mut pre = Self::build(rest, triangles, regions, Arc::new(winding), closed)?;
+        pre.without_layers = Some(kept_triangles);
+        Ok(pre)
+    }
+
+    fn build(
+        rest: &[Point3<f64>],
+        triangles: &[[u32; 3]],
+        regions: PairRegions,
+        winding: Arc<WindingNumber>,
+        closed: bool,
+    ) -> Result<Self, FoldError> {
         let n = rest.len();
         let w1 = WorkingRegion::new(triangles, regions.w1_faces.iter().copied(), n)?;
         let w2 = WorkingRegion::new(triangles, regions.w2_faces.iter().copied(), n)?;
@@ -111,8 +155,6 @@ impl FoldPre {
             .separated()
             .then(|| MeshIndex::self_contact_parts_within(Some(&parts), rest, triangles, &labels))
             .transpose()?;
-        // Only the topology is needed here (no factorization of the whole mesh).
-        let closed = crate::mesh::Region::whole(triangles).is_closed();
         let topology = CreaseTopology::new(triangles, &faces, &regions.w1, &regions.w2);
         let joint_size = regions.joint_size(rest, triangles);
         let sized_vertices = regions.sized_vertices();
@@ -138,6 +180,7 @@ impl FoldPre {
             parts,
             separated_parts,
             closed,
+            without_layers: None,
             winding,
             topology,
             shared_adjacency,
