@@ -6,7 +6,8 @@
 
 use crate::mesh::WeldedMesh;
 use crate::rig::{Pose, Rig};
-use crate::skinning::{self, cor::CorCenters, Method, Skinned};
+use crate::skinning::cor::{entry_budget, CorCenters};
+use crate::skinning::{self, Method, Skinned};
 use rayon::prelude::*;
 
 /// Per-rig data computed once, before any frame.
@@ -38,6 +39,23 @@ impl Precomputed {
             welded,
             cor,
         }
+    }
+
+    /// One warning per body whose centers of rotation were computed with a lowered
+    /// subdivision cap ([`CorCenters::subdivision_cap`]: a broken mesh past the entry budget).
+    pub fn warnings(&self, rig: &Rig) -> Vec<String> {
+        (self.cor.iter().enumerate())
+            .filter_map(|(b, c)| Some((b, c.as_ref()?.subdivision_cap?)))
+            .map(|(b, (cap, planned))| {
+                let name = rig.bodies.get(b).map_or("?", |body| body.name.as_str());
+                format!(
+                    "body {b} '{name}': centers of rotation with the subdivision capped at \
+                     {cap} ({planned} entries planned, past the budget of {}: triangles \
+                     spanning many joints, a broken mesh?)",
+                    entry_budget(rig.bodies.get(b).map_or(0, |body| body.triangles.len()))
+                )
+            })
+            .collect()
     }
 }
 

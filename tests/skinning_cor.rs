@@ -512,6 +512,7 @@ fn fast_precomputation_matches_brute_force() {
             sigma: 0.25,
             epsilon: 0.05,
             max_subdivision: 8,
+            entry_budget: None,
         },
     ] {
         let (fast, stats) = CorCenters::precompute_with_stats(&body, &params);
@@ -696,4 +697,49 @@ fn opposite_rotations_do_not_produce_nan() {
         let out = cor::skin(&body, &centers, &mats);
         assert!(is_finite(&out));
     }
+}
+
+/// A body whose planned subdivision passes the entry budget gets its cap halved until the plan
+/// fits, and says so: its centers are then those of the uncapped precomputation at that cap
+/// (an independent run), finite, and as many as without the budget.
+#[test]
+fn the_subdivision_is_capped_past_the_entry_budget() {
+    let body = irregular_body();
+    let fine = CorParams {
+        epsilon: 0.01,
+        ..CorParams::default()
+    };
+    let (free, free_stats) = CorCenters::precompute_with_stats(&body, &fine);
+    assert_eq!(
+        (free.subdivision_cap, free_stats.subdivision_cap),
+        (None, 32)
+    );
+    let budget = free_stats.bucket_entries / 10;
+    let bounded = CorParams {
+        entry_budget: Some(budget),
+        ..fine
+    };
+    let (capped, stats) = CorCenters::precompute_with_stats(&body, &bounded);
+    let (cap, planned) = capped.subdivision_cap.expect("capped");
+    println!("{free_stats:?}\n{stats:?}\ncap {cap}, planned {planned}, budget {budget}");
+    assert!(cap < 32 && cap == stats.subdivision_cap && planned >= free_stats.bucket_entries);
+    assert!(
+        stats.bucket_entries <= budget,
+        "{} entries",
+        stats.bucket_entries
+    );
+    let at_cap = CorParams {
+        max_subdivision: cap,
+        ..fine
+    };
+    let reference = CorCenters::precompute_with(&body, &at_cap);
+    assert_eq!(capped.centers, reference.centers);
+    assert_eq!(reference.subdivision_cap, None);
+    let count = |c: &CorCenters| c.centers.iter().flatten().count();
+    assert_eq!(count(&capped), count(&free));
+    assert!(capped
+        .centers
+        .iter()
+        .flatten()
+        .all(|p| p.coords.iter().all(|x| x.is_finite())));
 }

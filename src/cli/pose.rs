@@ -322,6 +322,9 @@ pub fn run(a: &Args) -> CliResult {
     let method = Method::from(a.skinning);
     let t_pre = Instant::now();
     let pre = Precomputed::new(&rig, method);
+    for w in pre.warnings(&rig) {
+        eprintln!("warning: {w}");
+    }
     let contact = if a.no_contact {
         None
     } else {

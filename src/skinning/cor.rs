@@ -51,6 +51,7 @@ use crate::rig::{Body, SkinWeights};
 use nalgebra::{Matrix4, Point3, Quaternion, UnitQuaternion, Vector3};
 use rayon::prelude::*;
 use std::collections::HashMap;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Parameters of the center precomputation (Le & Hodgins 2016 use σ = 0.1 and ε = 0.1).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -62,6 +63,9 @@ pub struct CorParams {
     /// Cap on the per-triangle subdivision level `n` (a triangle becomes at most `n²` pieces).
     /// Normalized weights are at most `√2` apart, so the cap only matters for `ε < √2 / cap`.
     pub max_subdivision: u32,
+    /// Most bucket entries (subtriangle, joint pair) planned before the cap is lowered
+    /// ([`CorCenters::subdivision_cap`]); `None`: [`entry_budget`] of the body's triangles.
+    pub entry_budget: Option<usize>,
 }
 
 impl Default for CorParams {
@@ -70,8 +74,27 @@ impl Default for CorParams {
             sigma: 0.1,
             epsilon: 0.1,
             max_subdivision: 32,
+            entry_budget: None,
         }
     }
+}
+
+/// The fewest bucket entries (subtriangle, joint pair) the precomputation may plan before it
+/// lowers the subdivision cap ([`entry_budget`]).
+pub const MIN_ENTRY_BUDGET: usize = 4 << 20;
+
+/// Bucket entries per triangle the precomputation may plan on a large mesh
+/// ([`entry_budget`]): the samples plan 30 (CesiumMan) to 377 (RiggedFigure) per triangle.
+pub const ENTRIES_PER_TRIANGLE: usize = 512;
+
+/// The bucket entries a body of `triangles` triangles may plan: past it the subdivision cap is
+/// halved until the plan fits ([`CorCenters::subdivision_cap`]). Only a broken mesh reaches it:
+/// CesiumMan's triangle list read as a fan (slivers spanning the body, each over many joints)
+/// planned 1388 entries per triangle, 19.5 M in all, and took 8.7 s and 2 GB to precompute
+/// for 3273 vertices; a 30k-vertex one would have needed about 20 GB. An entry costs about
+/// 100 bytes (its raw form and its packed block).
+pub fn entry_budget(triangles: usize) -> usize {
+    MIN_ENTRY_BUDGET.max(ENTRIES_PER_TRIANGLE.saturating_mul(triangles))
 }
 
 /// What the precomputation did, for reports and benchmarks.
@@ -94,6 +117,9 @@ pub struct CorStats {
     /// Kernel evaluations of the center integrals (`Σ` over unique rows of the sizes of their
     /// pair buckets, counting the zero padding of each bucket's last block).
     pub kernel_evaluations: u64,
+    /// The subdivision cap used: [`CorParams::max_subdivision`], or lower when the planned
+    /// entries passed [`entry_budget`].
+    pub subdivision_cap: u32,
 }
 
 /// Per-vertex centers of rotation (bind pose, mesh space).
@@ -102,6 +128,10 @@ pub struct CorCenters {
     /// Center of each file vertex; `None` where the similarity integral vanishes (single-bone
     /// vertices, isolated vertices): such vertices are skinned by plain LBS.
     pub centers: Vec<Option<Point3<f64>>>,
+    /// The subdivision cap, when the precomputation lowered it below
+    /// [`CorParams::max_subdivision`] to keep within [`entry_budget`] (a broken mesh; the
+    /// centers are then those of a coarser ε): `(cap used, entries the parameters planned)`.
+    pub subdivision_cap: Option<(u32, usize)>,
 }
 
 impl CorCenters {
@@ -120,7 +150,8 @@ impl CorCenters {
         let n = body.vertex_count().min(body.weights.len());
         let rows = UniqueRows::new(&body.weights, n);
         let pairs = PairIndex::from_rows(&body.weights, &rows.representatives);
-        let buckets = Buckets::build(body, params, &pairs);
+        let budget = (params.entry_budget).unwrap_or_else(|| entry_budget(body.triangles.len()));
+        let (buckets, capped) = Buckets::within(body, params, &pairs, budget);
         let solved = solve_rows(body, &rows.representatives, &pairs, &buckets, params.sigma);
         let centers = rows.scatter(&solved, body.vertex_count());
         let stats = CorStats {
@@ -132,8 +163,13 @@ impl CorCenters {
             pairs: pairs.keys.len(),
             bucket_entries: buckets.entries,
             kernel_evaluations: solved.iter().map(|s| s.1).sum(),
+            subdivision_cap: capped.map_or(params.max_subdivision.max(1), |c| c.0),
         };
-        (Self { centers }, stats)
+        let centers = Self {
+            centers,
+            subdivision_cap: capped,
+        };
+        (centers, stats)
     }
 }
 
@@ -353,6 +389,49 @@ fn for_each_piece(n: u32, area: f64, mut f: impl FnMut(f64, [f64; 3])) {
     }
 }
 
+/// What the subdivision of every triangle would emit, before any entry is made: per
+/// triangle its uncapped level `n` and the joint pairs it feeds (at most `n²` entries each).
+struct Plan {
+    triangles: Vec<(u32, usize)>,
+}
+
+impl Plan {
+    fn of(body: &Body, params: &CorParams, pairs: &PairIndex) -> Self {
+        let uncapped = CorParams {
+            max_subdivision: u32::MAX,
+            ..*params
+        };
+        let triangles = (body.triangles.par_iter())
+            .map(|tri| match TriangleData::gather(body, tri) {
+                Some(t) if t.joints.len() >= 2 && !pairs.keys.is_empty() => {
+                    (t.subdivision(&uncapped), local_pairs(&t, pairs).len())
+                }
+                _ => (1, 0),
+            })
+            .collect();
+        Self { triangles }
+    }
+
+    /// The entries planned under subdivision cap `cap` (an upper bound: pieces without weight
+    /// on a pair emit nothing).
+    fn entries(&self, cap: u32) -> usize {
+        let cap = cap.max(1);
+        (self.triangles.iter())
+            .map(|&(n, k)| (n.min(cap) as usize).saturating_pow(2).saturating_mul(k))
+            .fold(0, usize::saturating_add)
+    }
+
+    /// `cap`, halved until the planned entries fit `budget` (down to 1, whatever they are
+    /// then: one piece per triangle and pair, the mesh's own size).
+    fn cap_within(&self, cap: u32, budget: usize) -> u32 {
+        let mut cap = cap.max(1);
+        while cap > 1 && self.entries(cap) > budget {
+            cap /= 2;
+        }
+        cap
+    }
+}
+
 /// One bucket entry before packing: `(pair, w_tj, w_tk, w_tj w_tk A_t, w_tj w_tk A_t c_t)`.
 type RawEntry = (u32, f64, f64, f64, [f64; 3]);
 
@@ -370,6 +449,7 @@ struct Block {
 }
 
 /// The subtriangles bucketed per joint pair; bucket `b` is `blocks[offsets[b]..offsets[b + 1]]`.
+#[derive(Default)]
 struct Buckets {
     offsets: Vec<usize>,
     blocks: Vec<Block>,
@@ -378,24 +458,57 @@ struct Buckets {
 }
 
 impl Buckets {
+    /// [`Buckets::build`] within `budget` entries: when `params` make more, the subdivision cap
+    /// is lowered ([`Plan::cap_within`]) and the buckets built again; the cap and the entries
+    /// the parameters planned are returned then.
+    fn within(
+        body: &Body,
+        params: &CorParams,
+        pairs: &PairIndex,
+        budget: usize,
+    ) -> (Self, Option<(u32, usize)>) {
+        if let Some(buckets) = Self::build(body, params, pairs, budget) {
+            return (buckets, None);
+        }
+        let plan = Plan::of(body, params, pairs);
+        let cap = plan.cap_within(params.max_subdivision, budget);
+        let capped = CorParams {
+            max_subdivision: cap,
+            ..*params
+        };
+        // The plan bounds the entries from above: within the budget at `cap`, or the least
+        // there is (one piece per triangle and pair).
+        let buckets = Self::build(body, &capped, pairs, usize::MAX).unwrap_or_default();
+        (buckets, Some((cap, plan.entries(params.max_subdivision))))
+    }
+
     /// Subdivides every triangle (in parallel, chunk results kept in triangle order) and
-    /// counting-sorts the entries into their pair buckets.
-    fn build(body: &Body, params: &CorParams, pairs: &PairIndex) -> Self {
+    /// counting-sorts the entries into their pair buckets; `None` as soon as more than
+    /// `budget` entries are made (whatever the threads: the total only grows).
+    fn build(body: &Body, params: &CorParams, pairs: &PairIndex, budget: usize) -> Option<Self> {
+        let made = AtomicUsize::new(0);
         let chunks: Vec<(Vec<RawEntry>, usize)> = if pairs.keys.is_empty() {
             Vec::new()
         } else {
             body.triangles
                 .par_chunks(512)
                 .map(|tris| {
+                    if made.load(Ordering::Relaxed) > budget {
+                        return None;
+                    }
                     let mut out = Vec::new();
                     let pieces = tris
                         .iter()
                         .map(|t| emit_triangle(body, t, params, pairs, &mut out))
                         .sum();
-                    (out, pieces)
+                    made.fetch_add(out.len(), Ordering::Relaxed);
+                    Some((out, pieces))
                 })
-                .collect()
+                .collect::<Option<_>>()?
         };
+        if made.into_inner() > budget {
+            return None;
+        }
         let mut counts = vec![0usize; pairs.keys.len()];
         for e in chunks.iter().flat_map(|c| &c.0) {
             counts[e.0 as usize] += 1;
@@ -416,12 +529,12 @@ impl Buckets {
                 w[l] = value;
             }
         }
-        Self {
+        Some(Self {
             offsets,
             blocks,
             entries: counts.iter().sum(),
             subtriangles: chunks.iter().map(|c| c.1).sum(),
-        }
+        })
     }
 
     /// The blocks of bucket `bucket`.
