@@ -2286,20 +2286,28 @@ fn a_fold_crossing_at_rest_is_left_out_unless_enabled() {
 }
 
 /// A strap sunk across the capsule's joint (a separate piece of the same mesh, crossing it
-/// at rest): the fold runs without it. Checked against the capsule alone, an independent
-/// run: every frame's capsule vertices as the plain capsule's output (its faces, regions and
-/// `β` are the same; only the volume solve reads the strap, whose terms do not move), the
-/// strap's the skinning's, and no capsule vertex left inside the capsule.
+/// at rest), and one inside it (a lining, not crossing it): the fold runs without either.
+/// Checked against the capsule alone, an independent run: every frame's capsule vertices as
+/// the plain capsule's output (its faces, regions and `β` are the same; only the volume solve
+/// reads the strap, whose terms do not move), the strap's the skinning's, and no capsule
+/// vertex left inside the capsule.
 #[test]
 fn a_layer_sunk_across_a_joint_is_left_to_the_skinning() {
-    let s = strapped_scaled("bending_capsule", 31, 0.25, 25.0, 1.02);
     let l = load("bending_capsule", 31);
+    for (degrees, scale) in [(25.0, 1.02), (0.0, 0.9)] {
+        let s = strapped_scaled("bending_capsule", 31, 0.25, degrees, scale);
+        println!("strap tilted by {degrees}°, scaled by {scale}:");
+        a_layer_is_left_to_the_skinning(&s, &l);
+    }
+}
+
+fn a_layer_is_left_to_the_skinning(s: &Loaded, l: &Loaded) {
     let name = "capsule/lower-upper".to_string();
     let capsule_vertices = l.pre.welded[0].vertex_count();
     let capsule_faces = l.triangles[0].len();
     let strap_faces = s.triangles[0].len() - capsule_faces;
     for rule in [RestOverlaps::Resolved, RestOverlaps::LeftOut] {
-        let pass = self_pass(&s, &[]).with_rest_overlaps(rule);
+        let pass = self_pass(s, &[]).with_rest_overlaps(rule);
         assert!(pass.crossing_at_rest().is_empty() && pass.left_out().is_empty());
         let layers = pass.layers();
         assert_eq!(layers.len(), 1, "{layers:?}");
@@ -2309,8 +2317,8 @@ fn a_layer_sunk_across_a_joint_is_left_to_the_skinning() {
         assert_eq!(layer.faces, strap_faces);
         assert_eq!(layer.first_vertex as usize, capsule_vertices);
     }
-    assert!(self_pass(&l, &[]).layers().is_empty());
-    let (strapped_pass, plain_pass) = (self_pass(&s, &[]), self_pass(&l, &[]));
+    assert!(self_pass(l, &[]).layers().is_empty());
+    let (strapped_pass, plain_pass) = (self_pass(s, &[]), self_pass(l, &[]));
     let (mut worst, mut folded, mut inside) = (0.0_f64, 0, 0);
     for f in (0..31).step_by(3) {
         let pose = s.rig.pose_at(Some(0), s.times[f]);
@@ -2329,7 +2337,7 @@ fn a_layer_sunk_across_a_joint_is_left_to_the_skinning() {
         for (a, b) in out[0][..capsule_vertices].iter().zip(&plain[0]) {
             worst = worst.max((a - b).norm() / l.h_rest);
         }
-        let p = penetration(&l, 0, &out[0][..capsule_vertices]);
+        let p = penetration(l, 0, &out[0][..capsule_vertices]);
         inside = inside.max(p.vertices);
     }
     println!("frames with a fold {folded}, largest gap to the plain capsule {worst:.2e} h, penetrating {inside}");

@@ -140,8 +140,8 @@ struct SelfPairInfo {
     /// `pose` leaves it as it comes in every frame: its sides cross at rest (and
     /// `[[self_contact.pair]] enabled = true` does not resolve it), or `enabled = false`.
     left_out: bool,
-    /// The separate pieces of the mesh sunk into it at rest that it runs without (they
-    /// follow the skinning; `SelfContactPass::layers`).
+    /// The separate pieces of the mesh sunk into it or lying inside others at rest that it
+    /// runs without (they follow the skinning; `SelfContactPass::layers`).
     layers: Vec<Layer>,
 }
 
@@ -591,7 +591,7 @@ fn print_self_contact(s: &SelfContactInfo) {
         if !p.layers.is_empty() {
             let faces: Vec<String> = p.layers.iter().map(|l| l.faces.to_string()).collect();
             println!(
-                "      runs without {} separate piece(s) of the mesh crossing it at rest ({} faces), which follow the skinning",
+                "      runs without {} separate piece(s) of the mesh sunk into it or lying inside others at rest ({} faces), which follow the skinning",
                 p.layers.len(),
                 faces.join(", ")
             );

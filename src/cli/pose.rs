@@ -173,8 +173,9 @@ struct Summary {
     /// Joint pairs of the pass left as they come in every frame: their two sides cross at
     /// rest (modeled overlaps), or the configuration disables them.
     self_contact_pairs_left_out: Vec<LeftOutFold>,
-    /// Joint pairs run without separate pieces of their mesh sunk into them at rest (a belt, a
-    /// collar: those follow the skinning), with the pieces.
+    /// Joint pairs run without separate pieces of their mesh sunk into them or lying inside a
+    /// larger piece at rest (a belt, a collar, teeth: those follow the skinning), with the
+    /// pieces.
     self_contact_layers: Vec<FoldLayers>,
     /// Frames where the self-contact pass resolved at least one fold.
     fold_frames: usize,
@@ -778,7 +779,7 @@ fn print_layers(folds: &[FoldLayers]) {
         format!("{} (pieces of {} faces)", f.name, faces.join(", "))
     };
     println!(
-        "self-contact: {} joint pair(s) run without the separate pieces of the mesh sunk into them at rest, which follow the skinning: {}",
+        "self-contact: {} joint pair(s) run without the separate pieces of the mesh sunk into them or lying inside others at rest, which follow the skinning: {}",
         folds.len(),
         first_eight(folds, show)
     );

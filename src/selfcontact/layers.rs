@@ -2,16 +2,22 @@
 //! across a joint (a belt sunk into the waist, a collar into the neck, buttons into a coat, a
 //! head mesh pushed into the neck). Not in the paper, whose meshes are single surfaces.
 //!
-//! A fold whose two sides cross at rest ([`super::pass::SelfContactPass::crossing_at_rest`])
-//! where *different* connected components of the welded mesh meet runs without the smaller
-//! component of each such meeting: the layer's faces leave the fold's working regions (no
-//! contact, no deformation, no bulge: it follows the skinning), its inside-twice tree and its
-//! closed-surface test. The fold is then detected again at rest; if it still crosses there
-//! (a component crossing itself, a broken mesh), it stays a fold crossing at rest.
+//! A fold runs without two kinds of pieces (connected components of the welded mesh):
+//! - where its two sides cross at rest ([`super::pass::SelfContactPass::crossing_at_rest`])
+//!   and *different* pieces meet there, the smaller piece of each such meeting (a belt);
+//! - the pieces of its working regions lying inside a larger piece at rest
+//!   ([`Components::inside_larger`]: teeth in a head, a lining under a coat).
+//!
+//! Their faces leave the fold's working regions (no contact, no deformation, no bulge: they
+//! follow the skinning), its inside-twice tree and its closed-surface test. The fold is then
+//! detected again at rest; if it still crosses there (a piece crossing itself, a broken
+//! mesh), it stays as it was, a fold crossing at rest. A mesh of one piece (every sample) is
+//! not affected.
 //!
 //! The trade-off: a layer is not pushed by the fold, so the skin under it may bulge through
 //! it, as it does in the skinning when the layer is thin.
 
+use crate::report::metrics::{WindingNumber, WINDING_BETA};
 use nalgebra::Point3;
 use petgraph::unionfind::UnionFind;
 
@@ -22,6 +28,9 @@ pub struct Components {
     of_face: Vec<u32>,
     /// Per component: its rest area, face count, vertex count and lowest vertex.
     parts: Vec<Layer>,
+    /// Per component: its faces (ascending) and the bounding box of its corners at rest.
+    faces: Vec<Vec<u32>>,
+    boxes: Vec<(Point3<f64>, Point3<f64>)>,
 }
 
 /// One connected component of a body's welded mesh that a fold runs without
@@ -55,7 +64,9 @@ impl Components {
         let mut parts: Vec<Layer> = Vec::new();
         let mut counted = vec![false; n];
         let mut of_face = Vec::with_capacity(triangles.len());
-        for t in triangles {
+        let mut faces: Vec<Vec<u32>> = Vec::new();
+        let mut boxes: Vec<(Point3<f64>, Point3<f64>)> = Vec::new();
+        for (f, t) in triangles.iter().enumerate() {
             if !valid(t) {
                 of_face.push(u32::MAX);
                 continue;
@@ -69,6 +80,9 @@ impl Components {
                     area: 0.0,
                     first_vertex: u32::MAX,
                 });
+                faces.push(Vec::new());
+                let far = Point3::from([f64::INFINITY; 3]);
+                boxes.push((far, -far));
             }
             let part = &mut parts[id[root] as usize];
             part.faces += 1;
@@ -77,13 +91,23 @@ impl Components {
             if area.is_finite() {
                 part.area += area;
             }
+            let c = id[root] as usize;
+            faces[c].push(f as u32);
+            let b = &mut boxes[c];
             for &v in t {
                 part.first_vertex = part.first_vertex.min(v);
                 part.vertices += usize::from(!std::mem::replace(&mut counted[v as usize], true));
+                let p = &rest[v as usize];
+                *b = (b.0.inf(p), b.1.sup(p));
             }
             of_face.push(id[root]);
         }
-        Self { of_face, parts }
+        Self {
+            of_face,
+            parts,
+            faces,
+            boxes,
+        }
     }
 
     /// Number of components.
@@ -135,6 +159,63 @@ impl Components {
         layers.sort_unstable();
         layers.dedup();
         layers
+    }
+
+    /// The components of `faces` (ascending, each once).
+    pub fn of_faces(&self, faces: impl IntoIterator<Item = u32>) -> Vec<u32> {
+        let mut of: Vec<u32> = faces.into_iter().filter_map(|f| self.of_face(f)).collect();
+        of.sort_unstable();
+        of.dedup();
+        of
+    }
+
+    /// Of `pieces`, those lying inside a larger component of the mesh at `rest` (of
+    /// [`Components::of`]): most of their vertices at a generalized winding number of at least
+    /// 1/2 of that component's faces. Teeth in a head, a tongue behind the lips, a lining
+    /// under a coat: surfaces a fold of the outer one would otherwise press and bulge.
+    /// Ascending.
+    pub fn inside_larger(
+        &self,
+        rest: &[Point3<f64>],
+        triangles: &[[u32; 3]],
+        pieces: &[u32],
+    ) -> Vec<u32> {
+        let mut trees: std::collections::HashMap<u32, WindingNumber> = Default::default();
+        let mut inside = Vec::new();
+        for &c in pieces {
+            let vertices = self.vertices_of(c, triangles);
+            let (lo, hi) = self.boxes[c as usize];
+            let enclosing = (0..self.parts.len() as u32).filter(|&o| {
+                let (olo, ohi) = self.boxes[o as usize];
+                let holds = (0..3).all(|k| olo[k] <= lo[k] && hi[k] <= ohi[k]);
+                o != c && self.smaller(c, o) == c && holds
+            });
+            for o in enclosing {
+                let tree = trees.entry(o).or_insert_with(|| {
+                    let faces = self.faces[o as usize].iter().copied();
+                    WindingNumber::with_faces_beta(rest, triangles, faces, WINDING_BETA)
+                });
+                let within = (vertices.iter())
+                    .filter(|&&v| tree.query(&rest[v as usize]) >= 0.5)
+                    .count();
+                if 2 * within > vertices.len() {
+                    inside.push(c);
+                    break;
+                }
+            }
+        }
+        inside.sort_unstable();
+        inside
+    }
+
+    /// The vertices of component `c` (ascending).
+    fn vertices_of(&self, c: u32, triangles: &[[u32; 3]]) -> Vec<u32> {
+        let mut vertices: Vec<u32> = (self.faces[c as usize].iter())
+            .flat_map(|&f| triangles[f as usize])
+            .collect();
+        vertices.sort_unstable();
+        vertices.dedup();
+        vertices
     }
 
     /// Per face, whether it lies in one of `layers`.
@@ -193,6 +274,33 @@ mod tests {
         let (rest, tris) = square_and_triangle(3.0);
         let c = Components::of(&rest, &tris);
         assert_eq!(c.layers_of(&[[2, 0]]), vec![0]);
+    }
+
+    /// A closed sphere with a small triangle at its centre and one beside it: only the first
+    /// lies inside a larger piece; the sphere itself inside nothing.
+    #[test]
+    fn pieces_inside_a_larger_one() {
+        let (mut rest, mut tris) = crate::scenes::icosphere(2);
+        for (centre, piece) in [(0.0, 0u32), (3.0, 1)] {
+            let n = rest.len() as u32;
+            for k in 0..3 {
+                let a = f64::from(k) * 2.0 * std::f64::consts::PI / 3.0;
+                rest.push(Point3::new(
+                    centre + 0.1 * a.cos(),
+                    0.1 * a.sin(),
+                    0.05 * f64::from(piece),
+                ));
+            }
+            tris.push([n, n + 1, n + 2]);
+        }
+        let c = Components::of(&rest, &tris);
+        assert_eq!(c.len(), 3);
+        let f = tris.len() as u32;
+        let (sphere, inner, outer) = (c.of_face(0), c.of_face(f - 2), c.of_face(f - 1));
+        let [sphere, inner, outer] = [sphere, inner, outer].map(|x| x.expect("a piece"));
+        assert_eq!(c.of_faces([f - 1, 0, f - 2, 1]), vec![0, 1, 2]);
+        let inside = c.inside_larger(&rest, &tris, &[sphere, inner, outer]);
+        assert_eq!(inside, vec![inner]);
     }
 
     #[test]

@@ -24,8 +24,8 @@
 //!   direction field `d̄ = σ d̂_12`, both regions' deformation, the blend over `R` and one
 //!   volume solve on the blended positions, with the [`turn_guard`] scaling the displacement
 //!   back where it would turn faces over;
-//! - [`pass`]: every joint pair of a rig, frame by frame, in sweeps; a pair whose sides cross
-//!   at rest where separate pieces of the mesh meet runs without the smaller ones
+//! - [`pass`]: every joint pair of a rig, frame by frame, in sweeps, each without the separate
+//!   pieces of the mesh sunk into its sides or lying inside a larger piece at rest
 //!   ([`layers`]).
 //!
 //! The same machinery serves two working regions of one mesh that share no vertex

@@ -2,11 +2,11 @@
 //! region folds into contact is resolved, one after the other on the same positions (the
 //! output of a pair is the input of the next, in a fixed order), each only when it
 //! intersects itself; a frame without any fold costs one BVH refit per body and one
-//! self-overlap query per pair. A pair whose two sides already cross where the pass is built
-//! only where separate pieces of the mesh meet (a belt sunk into the waist) runs without the
-//! smaller piece of each meeting ([`super::layers`], [`SelfContactPass::layers`]); one that
-//! crosses otherwise (a layer modeled through the skin in one piece, a broken mesh) is
-//! resolved or left as it comes in every frame, as [`SelfContactPass::with_rest_overlaps`]
+//! self-overlap query per pair. A pair runs without the separate pieces of the mesh sunk
+//! into its sides at rest (a belt: the smaller of two pieces crossing there) or lying inside
+//! a larger piece (teeth, a lining) ([`super::layers`], [`SelfContactPass::layers`]); one whose
+//! sides still cross at rest (a layer modeled through the skin in one piece, a broken mesh)
+//! is resolved or left as it comes in every frame, as [`SelfContactPass::with_rest_overlaps`]
 //! says.
 
 use super::direction::{BoneAxes, DirectionSource, Meeting};
@@ -50,8 +50,8 @@ struct Fold {
     /// Whether it runs whatever it does at rest ([`SelfContactPass::with_pair_enabled`]);
     /// `None`: as [`SelfContactPass::with_rest_overlaps`] says.
     enabled: Option<bool>,
-    /// The pieces of the body it runs without, sunk into it at rest ([`super::layers`]), and
-    /// their faces (ascending).
+    /// The pieces of the body it runs without, sunk into it or lying inside a larger one at
+    /// rest ([`super::layers`]), and their faces (ascending).
     layers: Vec<Layer>,
     layer_faces: Vec<u32>,
     /// The mean rest edge length of the surface its inside-twice tree holds (the unit of the
@@ -391,9 +391,10 @@ impl SelfContactPass {
             .collect()
     }
 
-    /// The folds whose sides cross at rest only where separate pieces of the mesh meet (a
-    /// belt or a collar sunk into the skin, [`super::layers`]), which run without the smaller
-    /// piece of each such meeting, and so no longer cross at rest; in fold order.
+    /// The folds run without separate pieces of the mesh ([`super::layers`]): pieces sunk
+    /// into their sides at rest (a belt, a collar: the smaller of two pieces crossing there)
+    /// or lying inside a larger piece (teeth, a lining), which follow the skinning; in fold
+    /// order.
     pub fn layers(&self) -> Vec<FoldLayers> {
         (self.folds.iter())
             .filter(|f| !f.layers.is_empty())
@@ -1234,13 +1235,13 @@ fn with_detection(
     for fold in &mut folds {
         let (at_rest, face_pairs) = crossing_at(fold, &mut bodies);
         fold.at_rest = at_rest;
-        if face_pairs.is_empty() {
-            continue;
-        }
         let (body, triangles) = (fold.body, &welded[fold.body].triangles);
         let components =
             components[body].get_or_insert_with(|| Components::of(&rest[body], triangles));
-        let layers = components.layers_of(&face_pairs);
+        if components.len() < 2 {
+            continue;
+        }
+        let layers = layers_of(fold, &rest[body], triangles, components, &face_pairs);
         if layers.is_empty() {
             continue;
         }
@@ -1254,6 +1255,26 @@ fn with_detection(
         }
     }
     Ok(folds)
+}
+
+/// The pieces of its body `fold` runs without ([`super::layers`]): the smaller of every two
+/// pieces meeting in its `face_pairs` crossing at rest, and the pieces of its working regions
+/// lying inside a larger piece; ascending.
+fn layers_of(
+    fold: &Fold,
+    rest: &[Point3<f64>],
+    triangles: &[[u32; 3]],
+    components: &Components,
+    face_pairs: &[[u32; 2]],
+) -> Vec<u32> {
+    let regions = &fold.pre.regions;
+    let faces = regions.w1_faces.iter().chain(&regions.w2_faces).copied();
+    let pieces = components.of_faces(faces);
+    let mut layers = components.layers_of(face_pairs);
+    layers.extend(components.inside_larger(rest, triangles, &pieces));
+    layers.sort_unstable();
+    layers.dedup();
+    layers
 }
 
 /// `fold` without the pieces `layers` of its body ([`super::layers`]), when its regions keep
