@@ -137,12 +137,15 @@ impl Intersections {
     /// (the statistics' index-degenerate faces are the whole surface's).
     pub fn between_sets(mesh: &PosedMesh, sets: &FaceSets) -> Result<Self, IntersectError> {
         let counters = Counters::default();
-        let pairs = mesh.bvh().pairs_between_sets(
+        // The pairs sharing a vertex are dropped in the traversal (counted as skipped).
+        let (pairs, adjacent) = mesh.bvh().apart_pairs_between_sets(
             sets,
             mesh.positions(),
             mesh.index().triangles(),
             |fa, fb| pair_segment(mesh, fa, mesh, fb, true, &counters),
         )?;
+        Counters::add(&counters.candidates, adjacent);
+        Counters::add(&counters.adjacent, adjacent);
         let degenerate = mesh.index().index_degenerate_faces();
         Ok(assemble(pairs, degenerate, &counters))
     }
