@@ -1737,7 +1737,7 @@ fn a_body_mirrored_by_its_animation_is_left_out_and_reported() {
 /// in a text line, and `info` says so; the strap's vertices come out as the plain
 /// skinning's, the capsule's as the capsule's own run without the strap (an independent run
 /// of the same fold), with a fold in several frames; `--metrics` measures the capsule without
-/// the strap.
+/// the strap: the same measures as the capsule alone.
 #[test]
 fn pose_runs_a_fold_without_a_layer_sunk_into_it() {
     let dir = tmp("layer");
@@ -1797,7 +1797,17 @@ fn pose_runs_a_fold_without_a_layer_sunk_into_it() {
         "{text}"
     );
     pose_frames(&rig_path, &dir.join("plain"), frames, &["--no-contact"]);
-    pose_frames(&capsule, &dir.join("capsule"), frames, &["--self-contact"]);
+    let alone = pose_frames(
+        &capsule,
+        &dir.join("capsule"),
+        frames,
+        &["--self-contact", "--json", "--metrics"],
+    );
+    let alone: Value = serde_json::from_slice(&alone.stdout).expect("summary");
+    assert_eq!(
+        alone["metrics"], v["metrics"],
+        "measured as the capsule alone"
+    );
     let n = rig.bodies[0].positions.len();
     for i in 0..11 {
         let name = format!("frame_{i:04}.obj");

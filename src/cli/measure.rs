@@ -23,11 +23,17 @@ pub fn triangles(pre: &Precomputed) -> Vec<&[[u32; 3]]> {
 /// `h`: the rest pose's mean edge length, averaged over the bodies (the length unit of the
 /// penetration nudge and of the reported depths).
 pub fn rest_edge_length(rig: &Rig, pre: &Precomputed) -> f64 {
+    let triangles: Vec<&[[u32; 3]]> = pre.welded.iter().map(|w| w.triangles.as_slice()).collect();
+    mean_rest_edge(rig, pre, &triangles)
+}
+
+/// [`rest_edge_length`] over the `triangles` of each body.
+fn mean_rest_edge(rig: &Rig, pre: &Precomputed, triangles: &[&[[u32; 3]]]) -> f64 {
     let rest = contact_skin::frames::welded_positions(rig, pre, None, 0.0);
     let sum: f64 = rest
         .iter()
-        .zip(&pre.welded)
-        .map(|(p, w)| mean_edge_length(p, &w.triangles))
+        .zip(triangles)
+        .map(|(p, t)| mean_edge_length(p, t))
         .sum();
     sum / rest.len().max(1) as f64
 }
@@ -177,6 +183,11 @@ impl Surfaces {
 
     fn triangles(&self) -> Vec<&[[u32; 3]]> {
         self.triangles.iter().map(Vec::as_slice).collect()
+    }
+
+    /// [`rest_edge_length`] over these surfaces (without the layers).
+    pub fn rest_edge_length(&self, rig: &Rig, pre: &Precomputed) -> f64 {
+        mean_rest_edge(rig, pre, &self.triangles())
     }
 }
 

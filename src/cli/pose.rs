@@ -358,6 +358,11 @@ pub fn run(a: &Args) -> CliResult {
     }
     super::create_folder(&a.out)?;
     clear_interrupted_runs(a);
+    let surfaces = a.metrics.then(|| {
+        let self_run = contact.as_ref().and_then(|c| c.self_contact.as_ref());
+        let layers = self_run.map_or(Vec::new(), |s| s.pass.triangles_without_layers());
+        Surfaces::new(&pre, layers)
+    });
     let job = Job {
         args: a,
         rig: &rig,
@@ -367,12 +372,8 @@ pub fn run(a: &Args) -> CliResult {
         header: header(a, &rig, animation, method, contact.as_ref()),
         faces: obj::ObjFaces::of(&rig),
         pb: progress(times.len(), a.json),
-        h: a.metrics.then(|| measure::rest_edge_length(&rig, &pre)),
-        surfaces: a.metrics.then(|| {
-            let self_run = contact.as_ref().and_then(|c| c.self_contact.as_ref());
-            let layers = self_run.map_or(Vec::new(), |s| s.pass.triangles_without_layers());
-            Surfaces::new(&pre, layers)
-        }),
+        h: surfaces.as_ref().map(|s| s.rest_edge_length(&rig, &pre)),
+        surfaces,
         writes: Writes::stopped_on_interrupt(&a.out),
     };
     job.pb.set_message(format!("posing {}", a.rig.display()));
