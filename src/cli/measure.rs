@@ -23,8 +23,7 @@ pub fn triangles(pre: &Precomputed) -> Vec<&[[u32; 3]]> {
 /// `h`: the rest pose's mean edge length, averaged over the bodies (the length unit of the
 /// penetration nudge and of the reported depths).
 pub fn rest_edge_length(rig: &Rig, pre: &Precomputed) -> f64 {
-    let triangles: Vec<&[[u32; 3]]> = pre.welded.iter().map(|w| w.triangles.as_slice()).collect();
-    mean_rest_edge(rig, pre, &triangles)
+    mean_rest_edge(rig, pre, &triangles(pre))
 }
 
 /// [`rest_edge_length`] over the `triangles` of each body.
@@ -157,8 +156,8 @@ pub struct FrameMetrics {
 /// The surfaces the metrics read, per body: its welded triangles, without the layers the
 /// self-contact pass runs its folds without
 /// ([`contact_skin::selfcontact::pass::SelfContactPass::triangles_without_layers`]: pieces
-/// sunk into the skin as modeled, a belt or a collar, whose overlap with it is the model's
-/// and which no pass resolves), and whether each is closed.
+/// sunk into the skin or lying inside it as modeled, a belt, a collar, teeth, whose overlap
+/// with it is the model's and which no pass resolves), and whether each is closed.
 pub struct Surfaces {
     triangles: Vec<Vec<[u32; 3]>>,
     closed: Vec<bool>,

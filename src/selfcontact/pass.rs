@@ -50,13 +50,8 @@ struct Fold {
     /// Whether it runs whatever it does at rest ([`SelfContactPass::with_pair_enabled`]);
     /// `None`: as [`SelfContactPass::with_rest_overlaps`] says.
     enabled: Option<bool>,
-    /// The pieces of the body it runs without, sunk into it or lying inside a larger one at
-    /// rest ([`super::layers`]), and their faces (ascending).
-    layers: Vec<Layer>,
-    layer_faces: Vec<u32>,
-    /// The mean rest edge length of the surface its inside-twice tree holds (the unit of the
-    /// further sweeps' penetration test).
-    tree_edge: f64,
+    /// The pieces of the body it runs without, when it runs without some ([`super::layers`]).
+    without: Option<WithoutLayers>,
     /// Its inside-twice tree's slot in [`PosedBodies`]: the body's index for the body's
     /// tree, shared by its folds; past the bodies for a fold run without layers, whose tree
     /// leaves them out.
@@ -93,7 +88,20 @@ pub struct LeftOutFold {
     pub disabled: bool,
 }
 
-/// A fold run without pieces of its body sunk into it at rest
+/// What a fold runs without ([`super::layers`]): pieces of its body sunk into it or lying
+/// inside a larger piece at rest.
+#[derive(Debug)]
+struct WithoutLayers {
+    /// The pieces.
+    layers: Vec<Layer>,
+    /// Their faces (ascending).
+    faces: Vec<u32>,
+    /// The mean rest edge length of the surface its inside-twice tree holds, without them
+    /// (the unit of the further sweeps' penetration test).
+    tree_edge: f64,
+}
+
+/// A fold run without pieces of its body sunk into it or lying inside a larger piece at rest
 /// ([`SelfContactPass::layers`], [`super::layers`]).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct FoldLayers {
@@ -314,8 +322,10 @@ impl SelfContactPass {
         let mut slots: Vec<(usize, f64)> = (rest.iter().zip(welded).enumerate())
             .map(|(b, (r, w))| (b, mean_edge_length(r, &w.triangles)))
             .collect();
-        let layered = folds.iter().filter(|f| !f.layers.is_empty());
-        slots.extend(layered.map(|f| (f.body, f.tree_edge)));
+        let layered = folds
+            .iter()
+            .filter_map(|f| Some((f.body, f.without.as_ref()?)));
+        slots.extend(layered.map(|(body, w)| (body, w.tree_edge)));
         let triangles = welded.iter().map(|w| w.triangles.clone()).collect();
         Ok(Self {
             folds,
@@ -397,11 +407,12 @@ impl SelfContactPass {
     /// order.
     pub fn layers(&self) -> Vec<FoldLayers> {
         (self.folds.iter())
-            .filter(|f| !f.layers.is_empty())
-            .map(|f| FoldLayers {
-                body: f.body,
-                name: f.pre.regions.pair.name.clone(),
-                layers: f.layers.clone(),
+            .filter_map(|f| {
+                Some(FoldLayers {
+                    body: f.body,
+                    name: f.pre.regions.pair.name.clone(),
+                    layers: f.without.as_ref()?.layers.clone(),
+                })
             })
             .collect()
     }
@@ -412,10 +423,13 @@ impl SelfContactPass {
     /// pass leaves is measured.
     pub fn triangles_without_layers(&self) -> Vec<Option<Vec<[u32; 3]>>> {
         let mut left: Vec<Vec<bool>> = vec![Vec::new(); self.triangles.len()];
-        for fold in self.folds.iter().filter(|f| !f.layer_faces.is_empty()) {
+        for fold in &self.folds {
+            let Some(without) = &fold.without else {
+                continue;
+            };
             let flags = &mut left[fold.body];
             flags.resize(self.triangles[fold.body].len(), false);
-            for &f in &fold.layer_faces {
+            for &f in &without.faces {
                 flags[f as usize] = true;
             }
         }
@@ -1222,9 +1236,7 @@ fn with_detection(
             params: None,
             at_rest: None,
             enabled: None,
-            layers: Vec::new(),
-            layer_faces: Vec::new(),
-            tree_edge: 0.0,
+            without: None,
             winding_slot: body,
         });
     }
@@ -1278,8 +1290,7 @@ fn layers_of(
 }
 
 /// `fold` without the pieces `layers` of its body ([`super::layers`]), when its regions keep
-/// both sides and it can be precomputed without them (else it stays as it is, crossing at
-/// rest).
+/// both sides and it can be precomputed without them (else it stays as it is).
 fn without_layers(
     rig: &Rig,
     fold: &Fold,
@@ -1292,10 +1303,13 @@ fn without_layers(
     let removed = components.faces_in(layers);
     let regions = fold.pre.regions.without_faces(triangles, &removed)?;
     let pre = FoldPre::without_layers(rest, triangles, regions, &removed).ok()?;
-    let kept: Vec<[u32; 3]> = (triangles.iter().zip(&removed))
-        .filter(|(_, &r)| !r)
-        .map(|(t, _)| *t)
-        .collect();
+    let without = WithoutLayers {
+        layers: layers.iter().map(|&c| components.part(c).clone()).collect(),
+        faces: (0..removed.len() as u32)
+            .filter(|&f| removed[f as usize])
+            .collect(),
+        tree_edge: mean_edge_length(rest, pre.inside_surface(triangles)),
+    };
     let axes = BoneAxes::new(rig, welded, &pre.regions);
     Some(Fold {
         body: fold.body,
@@ -1307,11 +1321,7 @@ fn without_layers(
         params: None,
         at_rest: None,
         enabled: None,
-        layers: layers.iter().map(|&c| components.part(c).clone()).collect(),
-        layer_faces: (0..removed.len() as u32)
-            .filter(|&f| removed[f as usize])
-            .collect(),
-        tree_edge: mean_edge_length(rest, &kept),
+        without: Some(without),
         winding_slot: fold.body,
     })
 }

@@ -197,7 +197,8 @@ impl PairRegions {
             partition: self.partition.clone(),
             grow_rings: self.grow_rings,
             reason: format!(
-                "{}; without {left} faces of layers crossing it at rest",
+                "{}; without the {left} faces of separate pieces sunk into it or inside others \
+                 at rest",
                 self.reason
             ),
         })

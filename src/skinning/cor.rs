@@ -479,7 +479,11 @@ impl Buckets {
         // The plan bounds the entries from above: within the budget at `cap`, or the least
         // there is (one piece per triangle and pair).
         let buckets = Self::build(body, &capped, pairs, usize::MAX).unwrap_or_default();
-        (buckets, Some((cap, plan.entries(params.max_subdivision))))
+        let lowered = cap < params.max_subdivision.max(1);
+        (
+            buckets,
+            lowered.then(|| (cap, plan.entries(params.max_subdivision))),
+        )
     }
 
     /// Subdivides every triangle (in parallel, chunk results kept in triangle order) and

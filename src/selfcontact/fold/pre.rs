@@ -102,12 +102,13 @@ impl FoldPre {
 
     /// The surface the inside-twice test reads, of the body's `triangles`: without the
     /// layers the fold runs without ([`FoldPre::without_layers`]).
-    pub(super) fn inside_surface<'t>(&'t self, triangles: &'t [[u32; 3]]) -> &'t [[u32; 3]] {
+    pub(crate) fn inside_surface<'t>(&'t self, triangles: &'t [[u32; 3]]) -> &'t [[u32; 3]] {
         self.without_layers.as_deref().unwrap_or(triangles)
     }
 
-    /// A fold on the body without the faces `layers` marks (per face: pieces of the mesh
-    /// sunk into it at rest, [`crate::selfcontact::layers`]): `regions` must already be
+    /// A fold on the body without the faces `layers` marks (per face: separate pieces of the
+    /// mesh sunk into it or lying inside a larger piece at rest,
+    /// [`crate::selfcontact::layers`]): `regions` must already be
     /// without them ([`PairRegions::without_faces`]); its inside-twice tree and its
     /// closed-surface test leave them out too. The volume solve still reads the whole body:
     /// the layers do not move, so they change no volume difference.
