@@ -2,17 +2,21 @@
 //! across a joint (a belt sunk into the waist, a collar into the neck, buttons into a coat, a
 //! head mesh pushed into the neck). Not in the paper, whose meshes are single surfaces.
 //!
-//! A fold runs without two kinds of pieces (connected components of the welded mesh):
+//! A fold runs on the pieces (connected components of the welded mesh) holding its shared
+//! region, without:
 //! - where its two sides cross at rest ([`super::pass::SelfContactPass::crossing_at_rest`])
 //!   and *different* pieces meet there, the smaller piece of each such meeting (a belt);
 //! - the pieces of its working regions lying inside a larger piece at rest
-//!   ([`Components::inside_larger`]: teeth in a head, a lining under a coat).
+//!   ([`Components::inside_larger`]: teeth in a head, a lining under a coat);
+//! - the pieces of its working regions holding no vertex of its shared region (a stud on one
+//!   side), and every other piece of the body.
 //!
 //! Their faces leave the fold's working regions (no contact, no deformation, no bulge: they
 //! follow the skinning), its inside-twice tree and its closed-surface test. The fold is then
 //! detected again at rest; if it still crosses there (a piece crossing itself, a broken
 //! mesh), it stays as it was, a fold crossing at rest. A mesh of one piece (every sample) is
-//! not affected.
+//! not affected. (Pieces lying wholly in a shared region leave it when the pair is derived:
+//! no partition of unity reaches them, [`super::regions`].)
 //!
 //! The trade-off: a layer is not pushed by the fold, so the skin under it may bulge through
 //! it, as it does in the skinning when the layer is thin.
@@ -20,6 +24,7 @@
 use crate::report::metrics::{WindingNumber, WINDING_BETA};
 use nalgebra::Point3;
 use petgraph::unionfind::UnionFind;
+use std::collections::HashMap;
 
 /// The connected components of a welded mesh (faces sharing a vertex), with their rest area.
 #[derive(Clone, Debug)]
@@ -31,6 +36,14 @@ pub struct Components {
     /// Per component: its faces (ascending) and the bounding box of its corners at rest.
     faces: Vec<Vec<u32>>,
     boxes: Vec<(Point3<f64>, Point3<f64>)>,
+}
+
+/// What [`Components::inside_larger`] keeps between its calls on one mesh: the pieces
+/// answered, and the winding-number trees of the larger pieces tested.
+#[derive(Debug, Default)]
+pub struct InsideMemo {
+    known: HashMap<u32, bool>,
+    trees: HashMap<u32, WindingNumber>,
 }
 
 /// One connected component of a body's welded mesh that a fold runs without
@@ -173,39 +186,56 @@ impl Components {
     /// [`Components::of`]): most of their vertices at a generalized winding number of at least
     /// 1/2 of that component's faces. Teeth in a head, a tongue behind the lips, a lining
     /// under a coat: surfaces a fold of the outer one would otherwise press and bulge.
-    /// Ascending.
+    /// Ascending. `memo` keeps the answers and the trees between the calls on one mesh (a
+    /// body's folds share most pieces: a head's hair cards in its neck's and its jaw's).
     pub fn inside_larger(
         &self,
         rest: &[Point3<f64>],
         triangles: &[[u32; 3]],
         pieces: &[u32],
+        memo: &mut InsideMemo,
     ) -> Vec<u32> {
-        let mut trees: std::collections::HashMap<u32, WindingNumber> = Default::default();
-        let mut inside = Vec::new();
-        for &c in pieces {
-            let vertices = self.vertices_of(c, triangles);
-            let (lo, hi) = self.boxes[c as usize];
-            let enclosing = (0..self.parts.len() as u32).filter(|&o| {
-                let (olo, ohi) = self.boxes[o as usize];
-                let holds = (0..3).all(|k| olo[k] <= lo[k] && hi[k] <= ohi[k]);
-                o != c && self.smaller(c, o) == c && holds
-            });
-            for o in enclosing {
-                let tree = trees.entry(o).or_insert_with(|| {
-                    let faces = self.faces[o as usize].iter().copied();
-                    WindingNumber::with_faces_beta(rest, triangles, faces, WINDING_BETA)
-                });
-                let within = (vertices.iter())
-                    .filter(|&&v| tree.query(&rest[v as usize]) >= 0.5)
-                    .count();
-                if 2 * within > vertices.len() {
-                    inside.push(c);
-                    break;
-                }
-            }
-        }
+        let mut inside: Vec<u32> = (pieces.iter().copied())
+            .filter(|&c| {
+                *memo
+                    .known
+                    .entry(c)
+                    .or_insert_with(|| self.lies_inside(rest, triangles, c, &mut memo.trees))
+            })
+            .collect();
         inside.sort_unstable();
         inside
+    }
+
+    /// Whether piece `c` lies inside a larger piece ([`Components::inside_larger`]), with the
+    /// larger pieces' `trees` built as needed.
+    fn lies_inside(
+        &self,
+        rest: &[Point3<f64>],
+        triangles: &[[u32; 3]],
+        c: u32,
+        trees: &mut HashMap<u32, WindingNumber>,
+    ) -> bool {
+        let vertices = self.vertices_of(c, triangles);
+        let (lo, hi) = self.boxes[c as usize];
+        let enclosing = (0..self.parts.len() as u32).filter(|&o| {
+            let (olo, ohi) = self.boxes[o as usize];
+            let holds = (0..3).all(|k| olo[k] <= lo[k] && hi[k] <= ohi[k]);
+            o != c && self.smaller(c, o) == c && holds
+        });
+        for o in enclosing {
+            let tree = trees.entry(o).or_insert_with(|| {
+                let faces = self.faces[o as usize].iter().copied();
+                WindingNumber::with_faces_beta(rest, triangles, faces, WINDING_BETA)
+            });
+            let within = (vertices.iter())
+                .filter(|&&v| tree.query(&rest[v as usize]) >= 0.5)
+                .count();
+            if 2 * within > vertices.len() {
+                return true;
+            }
+        }
+        false
     }
 
     /// The vertices of component `c` (ascending).
@@ -299,8 +329,14 @@ mod tests {
         let (sphere, inner, outer) = (c.of_face(0), c.of_face(f - 2), c.of_face(f - 1));
         let [sphere, inner, outer] = [sphere, inner, outer].map(|x| x.expect("a piece"));
         assert_eq!(c.of_faces([f - 1, 0, f - 2, 1]), vec![0, 1, 2]);
-        let inside = c.inside_larger(&rest, &tris, &[sphere, inner, outer]);
+        let mut memo = InsideMemo::default();
+        let inside = c.inside_larger(&rest, &tris, &[sphere, inner, outer], &mut memo);
         assert_eq!(inside, vec![inner]);
+        // Asked again (the answers kept): the same.
+        assert_eq!(
+            c.inside_larger(&rest, &tris, &[outer, inner], &mut memo),
+            vec![inner]
+        );
     }
 
     #[test]

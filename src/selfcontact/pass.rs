@@ -14,7 +14,7 @@ use super::fold::{
     resolve_detected_in, FoldError, FoldInput, FoldOutcome, FoldOutput, FoldParams, FoldPre,
     FoldTimings,
 };
-use super::layers::{Components, Layer};
+use super::layers::{Components, InsideMemo, Layer};
 use super::regions::{derive_pairs_reporting, PairRegions, RegionOptions};
 use super::turn_guard::TurnReference;
 use super::SelfContactError;
@@ -27,6 +27,7 @@ use crate::rig::{Pose, Rig};
 use crate::skinning::{cofactor, unit_or_zero};
 use nalgebra::{Matrix3, Point3, Vector3};
 use std::borrow::Cow;
+use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
@@ -53,8 +54,8 @@ struct Fold {
     /// The pieces of the body it runs without, when it runs without some ([`super::layers`]).
     without: Option<WithoutLayers>,
     /// Its inside-twice tree's slot in [`PosedBodies`]: the body's index for the body's
-    /// tree, shared by its folds; past the bodies for a fold run without layers, whose tree
-    /// leaves them out.
+    /// tree, shared by its folds; past the bodies for a fold on a surface of its body
+    /// ([`FoldPre::on_surface`]: a body of several pieces), shared by the folds on the same.
     winding_slot: usize,
 }
 
@@ -96,9 +97,6 @@ struct WithoutLayers {
     layers: Vec<Layer>,
     /// Their faces (ascending).
     faces: Vec<u32>,
-    /// The mean rest edge length of the surface its inside-twice tree holds, without them
-    /// (the unit of the further sweeps' penetration test).
-    tree_edge: f64,
 }
 
 /// A fold run without pieces of its body sunk into it or lying inside a larger piece at rest
@@ -203,8 +201,8 @@ pub struct SelfContactPass {
     /// What the pass does with the folds of [`SelfContactPass::crossing_at_rest`].
     rest_overlaps: RestOverlaps,
     /// The body of each inside-twice tree a frame keeps ([`Fold::winding_slot`]: one per
-    /// body, then one per fold run without layers) and its surface's mean rest edge length:
-    /// further sweeps look for penetrating vertices tree by tree, in that unit.
+    /// body, then one per surface of a body that folds run on) and its surface's mean rest
+    /// edge length: further sweeps look for penetrating vertices tree by tree, in that unit.
     slots: Vec<(usize, f64)>,
     /// Detection trees of finished frames, one set per body, each refit in place by a later
     /// frame ([`MeshIndex::refit_nodes_in`]) instead of copied from the index: as many sets as
@@ -318,14 +316,11 @@ impl SelfContactPass {
                 .map_err(|source| SelfPassError::Fold { name, source })?;
             built.push((body, pre, axes, direction));
         }
-        let folds = with_detection(rig, built, rest, welded)?;
+        let (folds, surfaces) = with_detection(rig, built, rest, welded)?;
         let mut slots: Vec<(usize, f64)> = (rest.iter().zip(welded).enumerate())
             .map(|(b, (r, w))| (b, mean_edge_length(r, &w.triangles)))
             .collect();
-        let layered = folds
-            .iter()
-            .filter_map(|f| Some((f.body, f.without.as_ref()?)));
-        slots.extend(layered.map(|(body, w)| (body, w.tree_edge)));
+        slots.extend(surfaces);
         let triangles = welded.iter().map(|w| w.triangles.clone()).collect();
         Ok(Self {
             folds,
@@ -1201,13 +1196,16 @@ fn normals_of<'s>(
 }
 
 /// The folds with their detection: one index per body with a fold, over the faces of all its
-/// folds' sides (the rest of the body is never queried), each fold's sides marked in it.
+/// folds' sides (the rest of the body is never queried), each fold's sides marked in it. On a
+/// body of several pieces, each fold runs on the surface of its own pieces
+/// ([`super::layers`], [`FoldPre::on_surface`]): the extra inside-twice trees, each shared by
+/// the folds on the same surface, come with their body and rest edge length.
 fn with_detection(
     rig: &Rig,
     built: Vec<(usize, FoldPre, BoneAxes, DirectionSource)>,
     rest: &[Vec<Point3<f64>>],
     welded: &[WeldedMesh],
-) -> Result<Vec<Fold>, SelfPassError> {
+) -> Result<(Vec<Fold>, SurfaceSlots), SelfPassError> {
     let mut sided: Vec<Vec<u32>> = vec![Vec::new(); welded.len()];
     for (body, pre, ..) in &built {
         sided[*body].extend(pre.sided_faces());
@@ -1242,73 +1240,148 @@ fn with_detection(
     }
     let mut positions = rest.to_vec();
     let mut bodies = PosedBodies::new(&mut positions, None, welded.len());
-    let mut components: Vec<Option<Components>> = vec![None; welded.len()];
-    let mut slots = welded.len();
+    let mut pieces: Vec<Option<BodyPieces>> = (0..welded.len()).map(|_| None).collect();
+    let mut surfaces = Surfaces::new(welded.len());
     for fold in &mut folds {
         let (at_rest, face_pairs) = crossing_at(fold, &mut bodies);
         fold.at_rest = at_rest;
         let (body, triangles) = (fold.body, &welded[fold.body].triangles);
-        let components =
-            components[body].get_or_insert_with(|| Components::of(&rest[body], triangles));
-        if components.len() < 2 {
+        let p = pieces[body].get_or_insert_with(|| BodyPieces {
+            components: Components::of(&rest[body], triangles),
+            memo: InsideMemo::default(),
+        });
+        if p.components.len() < 2 {
             continue;
         }
-        let layers = layers_of(fold, &rest[body], triangles, components, &face_pairs);
-        if layers.is_empty() {
-            continue;
-        }
-        let without = without_layers(rig, fold, &rest[body], &welded[body], components, &layers);
-        if let Some(mut without) = without {
-            if crossing_at(&without, &mut bodies).0.is_none() {
-                without.winding_slot = slots;
-                slots += 1;
-                *fold = without;
+        let surface = (&rest[body][..], &triangles[..]);
+        let layers = layers_of(fold, surface, p, &face_pairs);
+        if !layers.is_empty() {
+            let without = without_layers(rig, fold, &rest[body], &welded[body], p, &layers);
+            if let Some(without) = without {
+                if crossing_at(&without, &mut bodies).0.is_none() {
+                    *fold = without;
+                }
             }
         }
+        surfaces.put(fold, surface, &p.components);
     }
-    Ok(folds)
+    Ok((folds, surfaces.extra))
+}
+
+/// A body's pieces ([`Components`]) and what [`Components::inside_larger`] keeps for it.
+struct BodyPieces {
+    components: Components,
+    memo: InsideMemo,
+}
+
+/// Per inside-twice tree past the bodies' ([`Surfaces`]): its body and its surface's mean
+/// rest edge length.
+type SurfaceSlots = Vec<(usize, f64)>;
+
+/// A surface folds run on: its inside-twice tree, its triangles and its slot.
+type Surface = (Arc<WindingNumber>, Vec<[u32; 3]>, usize);
+
+/// The surfaces folds run on ([`FoldPre::on_surface`]), per body keyed by the pieces left
+/// out of them, with their shared inside-twice trees and slots.
+struct Surfaces {
+    known: Vec<HashMap<Vec<u32>, Surface>>,
+    /// Per extra slot (past the bodies'): its body and its surface's mean rest edge length.
+    extra: SurfaceSlots,
+}
+
+impl Surfaces {
+    fn new(bodies: usize) -> Self {
+        Self {
+            known: (0..bodies).map(|_| HashMap::new()).collect(),
+            extra: Vec::new(),
+        }
+    }
+
+    /// Puts `fold` on the surface of the pieces its regions hold (left as it is when they
+    /// are all of its body's).
+    fn put(
+        &mut self,
+        fold: &mut Fold,
+        (rest, triangles): (&[Point3<f64>], &[[u32; 3]]),
+        components: &Components,
+    ) {
+        let regions = &fold.pre.regions;
+        let own = components.of_faces(regions.w1_faces.iter().chain(&regions.w2_faces).copied());
+        let others: Vec<u32> = (0..components.len() as u32)
+            .filter(|c| own.binary_search(c).is_err())
+            .collect();
+        if others.is_empty() {
+            return;
+        }
+        let next = self.known.len() + self.extra.len();
+        let (tree, kept, slot) = self.known[fold.body]
+            .entry(others)
+            .or_insert_with_key(|others| {
+                let left = components.faces_in(others);
+                let kept: Vec<[u32; 3]> = (triangles.iter().zip(&left))
+                    .filter(|(_, &l)| !l)
+                    .map(|(t, _)| *t)
+                    .collect();
+                let tree = Arc::new(FoldPre::surface_winding(rest, triangles, &left));
+                (tree, kept, next)
+            });
+        if *slot == next {
+            self.extra.push((fold.body, mean_edge_length(rest, kept)));
+        }
+        fold.pre.on_surface(kept.clone(), Arc::clone(tree));
+        fold.winding_slot = *slot;
+    }
 }
 
 /// The pieces of its body `fold` runs without ([`super::layers`]): the smaller of every two
-/// pieces meeting in its `face_pairs` crossing at rest, and the pieces of its working regions
-/// lying inside a larger piece; ascending.
+/// pieces meeting in its `face_pairs` crossing at rest, the pieces of its working regions
+/// lying inside a larger piece, and (a fold with a shared region) those holding no vertex of
+/// it (a stud, an eyelash card on one side: their faces would open the fold's surface, and
+/// an open surface keeps no volume); ascending.
 fn layers_of(
     fold: &Fold,
-    rest: &[Point3<f64>],
-    triangles: &[[u32; 3]],
-    components: &Components,
+    (rest, triangles): (&[Point3<f64>], &[[u32; 3]]),
+    pieces: &mut BodyPieces,
     face_pairs: &[[u32; 2]],
 ) -> Vec<u32> {
+    let components = &pieces.components;
     let regions = &fold.pre.regions;
-    let faces = regions.w1_faces.iter().chain(&regions.w2_faces).copied();
-    let pieces = components.of_faces(faces);
+    let faces = || regions.w1_faces.iter().chain(&regions.w2_faces).copied();
+    let own = components.of_faces(faces());
     let mut layers = components.layers_of(face_pairs);
-    layers.extend(components.inside_larger(rest, triangles, &pieces));
+    layers.extend(components.inside_larger(rest, triangles, &own, &mut pieces.memo));
+    if !regions.separated() {
+        let in_r = |v: &u32| regions.w1[*v as usize] && regions.w2[*v as usize];
+        let holding = faces().filter(|&f| triangles[f as usize].iter().any(in_r));
+        let holding = components.of_faces(holding);
+        layers.extend(own.iter().filter(|c| holding.binary_search(c).is_err()));
+    }
     layers.sort_unstable();
     layers.dedup();
     layers
 }
 
 /// `fold` without the pieces `layers` of its body ([`super::layers`]), when its regions keep
-/// both sides and it can be precomputed without them (else it stays as it is).
+/// both sides and it can be precomputed without them (else it stays as it is). Its surface
+/// is set afterwards ([`Surfaces::put`]).
 fn without_layers(
     rig: &Rig,
     fold: &Fold,
     rest: &[Point3<f64>],
     welded: &WeldedMesh,
-    components: &Components,
+    pieces: &BodyPieces,
     layers: &[u32],
 ) -> Option<Fold> {
-    let triangles = &welded.triangles;
+    let (triangles, components) = (&welded.triangles, &pieces.components);
     let removed = components.faces_in(layers);
     let regions = fold.pre.regions.without_faces(triangles, &removed)?;
-    let pre = FoldPre::without_layers(rest, triangles, regions, &removed).ok()?;
+    let winding = fold.pre.shared_winding();
+    let pre = FoldPre::with_winding(rest, triangles, regions, winding).ok()?;
     let without = WithoutLayers {
         layers: layers.iter().map(|&c| components.part(c).clone()).collect(),
         faces: (0..removed.len() as u32)
             .filter(|&f| removed[f as usize])
             .collect(),
-        tree_edge: mean_edge_length(rest, pre.inside_surface(triangles)),
     };
     let axes = BoneAxes::new(rig, welded, &pre.regions);
     Some(Fold {

@@ -537,10 +537,22 @@ fn grown_pair(
 ) -> Result<Option<PairRegions>, SelfContactError> {
     let mesh = src.mesh;
     let n = mesh.vertex_count();
-    let [(w1_faces, w1), (w2_faces, w2)] = seeded.seeds.each_ref().map(|seed| {
-        let grown = grow(seed.clone(), &src.adjacency, options.grow_rings);
-        as_faces(&mesh.triangles, &grown)
-    });
+    let mut grown = (seeded.seeds.each_ref())
+        .map(|seed| grow(seed.clone(), &src.adjacency, options.grow_rings));
+    let [(w1_faces, w1), (w2_faces, w2)] = grown.each_ref().map(|g| as_faces(&mesh.triangles, g));
+    // Parts of `R` with no border (separate pieces lying wholly in it: no partition of unity
+    // can reach them) follow the skinning: both regions leave them.
+    let unreached = unreached_parts(&src.adjacency, &w1, &w2);
+    let [(w1_faces, w1), (w2_faces, w2)] = if unreached.is_empty() {
+        [(w1_faces, w1), (w2_faces, w2)]
+    } else {
+        for g in &mut grown {
+            for &v in &unreached {
+                g[v as usize] = false;
+            }
+        }
+        grown.each_ref().map(|g| as_faces(&mesh.triangles, g))
+    };
     let in_r: Vec<bool> = w1.iter().zip(&w2).map(|(&a, &b)| a && b).collect();
     let shared: Vec<u32> = (0..n).filter(|&v| in_r[v]).map(|v| v as u32).collect();
     if shared.is_empty() {
@@ -565,7 +577,56 @@ fn grown_pair(
     };
     let seeds = seeded.seeds.each_ref().map(|s| count(s));
     regions.reason = derivation(src.rig, src.tree.source, options, seeds, &regions);
+    if !unreached.is_empty() {
+        regions.reason = format!(
+            "{}; {} vertices of parts of R with no border (separate pieces lying wholly in it) \
+             left to the skinning",
+            regions.reason,
+            unreached.len()
+        );
+    }
     Ok(Some(regions))
+}
+
+/// The vertices of `R = W1 ∩ W2` (per-vertex flags) in the parts of `R` (connected over
+/// `adjacency`) holding no vertex next to `W1 \ R` or `W2 \ R`, when some other part holds
+/// one: no Dirichlet border reaches them, so they can carry no partition of unity (a button,
+/// a stud, teeth: separate pieces of the mesh whose every vertex is weighted to both
+/// joints). Ascending; empty when no part has a border at all.
+fn unreached_parts(adjacency: &[Vec<u32>], w1: &[bool], w2: &[bool]) -> Vec<u32> {
+    let in_r = |v: u32| w1[v as usize] && w2[v as usize];
+    let bordered =
+        |v: u32| (adjacency[v as usize].iter()).any(|&u| w1[u as usize] != w2[u as usize]);
+    let mut seen = vec![false; adjacency.len()];
+    let (mut unreached, mut any_reached) = (Vec::new(), false);
+    for start in (0..adjacency.len() as u32).filter(|&v| in_r(v)) {
+        if std::mem::replace(&mut seen[start as usize], true) {
+            continue;
+        }
+        let (mut part, mut stack, mut reached) = (vec![start], vec![start], false);
+        while let Some(v) = stack.pop() {
+            reached |= bordered(v);
+            for &u in &adjacency[v as usize] {
+                if in_r(u) && !std::mem::replace(&mut seen[u as usize], true) {
+                    part.push(u);
+                    stack.push(u);
+                }
+            }
+        }
+        if reached {
+            any_reached = true;
+        } else {
+            unreached.extend(part);
+        }
+    }
+    if !any_reached {
+        // No part has a border: the shared region as a whole has no partition of unity
+        // (Khronos's RiggedSimple, both joints over the whole cylinder), which the partition
+        // reports; nothing is dropped.
+        return Vec::new();
+    }
+    unreached.sort_unstable();
+    unreached
 }
 
 /// The seeds of W1 and W2: vertices whose weight on the parent joint (skin index `p`), and on

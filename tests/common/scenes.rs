@@ -93,6 +93,38 @@ pub fn strapped_scaled(
     prepare(rig, frames, Method::Lbs)
 }
 
+/// A committed rig's copy with `n` tiny separate triangles inside its first body (each at
+/// half the distance of a body vertex from the `y` axis, with that vertex's skin weights):
+/// studs, teeth, a lining's bits, many of them wholly in a joint's shared region.
+pub fn with_pieces_inside(name: &str, frames: usize, n: usize) -> Loaded {
+    let mut rig = load(name, frames).rig;
+    let body = &mut rig.bodies[0];
+    let nv = body.positions.len();
+    for k in 0..n {
+        let v = (k * 7) % nv;
+        let p = body.positions[v];
+        let c = Point3::new(p.x * 0.5, p.y, p.z * 0.5);
+        let (joints, weights) = body.weights.row_slices(v);
+        let row: Vec<(u16, f64)> = joints
+            .iter()
+            .copied()
+            .zip(weights.iter().copied())
+            .collect();
+        let first = body.positions.len() as u32;
+        for d in [Vector3::x(), Vector3::y(), Vector3::z()] {
+            body.positions.push(c + d * 0.01);
+            body.normals.push(Vector3::x());
+            body.weights.push_row(&row);
+        }
+        body.triangles.push([first, first + 1, first + 2]);
+    }
+    if let Some(last) = body.primitives.last_mut() {
+        last.vertex_count = body.positions.len() - last.first_vertex;
+        last.triangle_count = body.triangles.len() - last.first_triangle;
+    }
+    prepare(rig, frames, Method::Lbs)
+}
+
 /// The strap of [`strapped_scaled`] on its own: vertices (positions, normals, skin weight
 /// rows) and triangles indexing them.
 pub struct Strap {

@@ -35,9 +35,9 @@ pub struct FoldPre {
     /// once at rest, their trees refit per frame (built per frame until 2026-12-04).
     pub(super) separated_parts: Option<[MeshIndex; 2]>,
     pub(super) closed: bool,
-    /// The body's triangles without the layers it runs without ([`FoldPre::without_layers`]),
-    /// the surface its inside-twice test reads; `None`: the whole body's.
-    pub(super) without_layers: Option<Vec<[u32; 3]>>,
+    /// The surface its inside-twice and closed-surface tests read ([`FoldPre::on_surface`]);
+    /// `None`: the whole body's.
+    pub(super) surface: Option<Vec<[u32; 3]>>,
     /// The body's winding-number tree at rest ([`FoldPre::body_winding`]), shared by the
     /// body's folds.
     pub(super) winding: Arc<WindingNumber>,
@@ -82,6 +82,11 @@ impl FoldPre {
         WindingNumber::with_beta(rest, triangles, INSIDE_BETA)
     }
 
+    /// The tree this fold's inside-twice test starts from, shared.
+    pub fn shared_winding(&self) -> Arc<WindingNumber> {
+        Arc::clone(&self.winding)
+    }
+
     /// A copy of the body's tree at rest, for [`super::resolve_detected_in`].
     pub fn body_tree(&self) -> WindingNumber {
         WindingNumber::clone(&self.winding)
@@ -100,34 +105,34 @@ impl FoldPre {
         Self::build(rest, triangles, regions, winding, closed)
     }
 
-    /// The surface the inside-twice test reads, of the body's `triangles`: without the
-    /// layers the fold runs without ([`FoldPre::without_layers`]).
+    /// The surface the inside-twice test reads, of the body's `triangles`
+    /// ([`FoldPre::on_surface`]).
     pub(crate) fn inside_surface<'t>(&'t self, triangles: &'t [[u32; 3]]) -> &'t [[u32; 3]] {
-        self.without_layers.as_deref().unwrap_or(triangles)
+        self.surface.as_deref().unwrap_or(triangles)
     }
 
-    /// A fold on the body without the faces `layers` marks (per face: separate pieces of the
-    /// mesh sunk into it or lying inside a larger piece at rest,
-    /// [`crate::selfcontact::layers`]): `regions` must already be
-    /// without them ([`PairRegions::without_faces`]); its inside-twice tree and its
-    /// closed-surface test leave them out too. The volume solve still reads the whole body:
-    /// the layers do not move, so they change no volume difference.
-    pub fn without_layers(
+    /// The inside-twice tree of the body's `triangles` at `rest` without the faces `left`
+    /// marks ([`FoldPre::on_surface`]).
+    pub fn surface_winding(
         rest: &[Point3<f64>],
         triangles: &[[u32; 3]],
-        regions: PairRegions,
-        layers: &[bool],
-    ) -> Result<Self, FoldError> {
-        let kept = || {
-            (0..triangles.len() as u32)
-                .filter(|&f| !layers.get(f as usize).copied().unwrap_or(false))
-        };
-        let winding = WindingNumber::with_faces_beta(rest, triangles, kept(), INSIDE_BETA);
-        let kept_triangles: Vec<[u32; 3]> = kept().map(|f| triangles[f as usize]).collect();
-        let closed = crate::mesh::Region::whole(&kept_triangles).is_closed();
-        let mut pre = Self::build(rest, triangles, regions, Arc::new(winding), closed)?;
-        pre.without_layers = Some(kept_triangles);
-        Ok(pre)
+        left: &[bool],
+    ) -> WindingNumber {
+        let kept = (0..triangles.len() as u32)
+            .filter(|&f| !left.get(f as usize).copied().unwrap_or(false));
+        WindingNumber::with_faces_beta(rest, triangles, kept, INSIDE_BETA)
+    }
+
+    /// The fold on a surface of its body: its `kept` triangles and their inside-twice tree
+    /// ([`FoldPre::surface_winding`]), without separate pieces of the mesh that are not its
+    /// own (other pieces, and those sunk into it or lying inside a larger one at rest,
+    /// [`crate::selfcontact::layers`]). Its inside-twice test and its closed-surface test read
+    /// that surface; the volume solve still reads the whole body, whose other pieces do not
+    /// move and so change no volume difference.
+    pub fn on_surface(&mut self, kept: Vec<[u32; 3]>, winding: Arc<WindingNumber>) {
+        self.closed = crate::mesh::Region::whole(&kept).is_closed();
+        self.surface = Some(kept);
+        self.winding = winding;
     }
 
     fn build(
@@ -181,7 +186,7 @@ impl FoldPre {
             parts,
             separated_parts,
             closed,
-            without_layers: None,
+            surface: None,
             winding,
             topology,
             shared_adjacency,
