@@ -239,7 +239,7 @@ impl Components {
     }
 
     /// The vertices of component `c` (ascending).
-    fn vertices_of(&self, c: u32, triangles: &[[u32; 3]]) -> Vec<u32> {
+    pub(crate) fn vertices_of(&self, c: u32, triangles: &[[u32; 3]]) -> Vec<u32> {
         let mut vertices: Vec<u32> = (self.faces[c as usize].iter())
             .flat_map(|&f| triangles[f as usize])
             .collect();

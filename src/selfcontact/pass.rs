@@ -1279,7 +1279,7 @@ struct BodyPieces {
 type SurfaceSlots = Vec<(usize, f64)>;
 
 /// A surface folds run on: its inside-twice tree, its triangles and its slot.
-type Surface = (Arc<WindingNumber>, Vec<[u32; 3]>, usize);
+type Surface = (Arc<WindingNumber>, Arc<Vec<[u32; 3]>>, usize);
 
 /// The surfaces folds run on ([`FoldPre::on_surface`]), per body keyed by the pieces left
 /// out of them, with their shared inside-twice trees and slots.
@@ -1323,12 +1323,12 @@ impl Surfaces {
                     .map(|(t, _)| *t)
                     .collect();
                 let tree = Arc::new(FoldPre::surface_winding(rest, triangles, &left));
-                (tree, kept, next)
+                (tree, Arc::new(kept), next)
             });
         if *slot == next {
             self.extra.push((fold.body, mean_edge_length(rest, kept)));
         }
-        fold.pre.on_surface(kept.clone(), Arc::clone(tree));
+        fold.pre.on_surface(Arc::clone(kept), Arc::clone(tree));
         fold.winding_slot = *slot;
     }
 }

@@ -18,6 +18,7 @@
 //! ([`WeldedMesh::representative`]); the rest positions are the bind positions of the body.
 
 use super::joint_tree::{JointTree, TreeSource};
+use super::layers::Components;
 use super::partition::{faces_within, partition_with_adjacency, vertex_adjacency, PartitionStats};
 use super::SelfContactError;
 use crate::mesh::WeldedMesh;
@@ -416,6 +417,8 @@ struct PairSource<'a> {
     tree: &'a JointTree,
     adjacency: Vec<Vec<u32>>,
     rest: Vec<Point3<f64>>,
+    /// The body's separate pieces ([`pieces_wholly_in_r`]).
+    pieces: Components,
 }
 
 impl<'a> PairSource<'a> {
@@ -426,9 +429,11 @@ impl<'a> PairSource<'a> {
         skin: &'a Skin,
         tree: &'a JointTree,
     ) -> Result<Self, SelfContactError> {
+        let rest = welded_rest(&rig.bodies[body], mesh)?;
         Ok(Self {
             adjacency: vertex_adjacency(mesh.vertex_count(), &mesh.triangles)?,
-            rest: welded_rest(&rig.bodies[body], mesh)?,
+            pieces: Components::of(&rest, &mesh.triangles),
+            rest,
             rig,
             body,
             mesh,
@@ -540,9 +545,9 @@ fn grown_pair(
     let mut grown = (seeded.seeds.each_ref())
         .map(|seed| grow(seed.clone(), &src.adjacency, options.grow_rings));
     let [(w1_faces, w1), (w2_faces, w2)] = grown.each_ref().map(|g| as_faces(&mesh.triangles, g));
-    // Parts of `R` with no border (separate pieces lying wholly in it: no partition of unity
-    // can reach them) follow the skinning: both regions leave them.
-    let unreached = unreached_parts(&src.adjacency, &w1, &w2);
+    // Separate pieces lying wholly in `R` (no partition of unity can reach them) follow the
+    // skinning: both regions leave them.
+    let unreached = pieces_wholly_in_r(&src.pieces, &mesh.triangles, &w1, &w2);
     let [(w1_faces, w1), (w2_faces, w2)] = if unreached.is_empty() {
         [(w1_faces, w1), (w2_faces, w2)]
     } else {
@@ -579,8 +584,8 @@ fn grown_pair(
     regions.reason = derivation(src.rig, src.tree.source, options, seeds, &regions);
     if !unreached.is_empty() {
         regions.reason = format!(
-            "{}; {} vertices of parts of R with no border (separate pieces lying wholly in it) \
-             left to the skinning",
+            "{}; {} vertices of separate pieces lying wholly in R (no border of R reaches \
+             them) left to the skinning",
             regions.reason,
             unreached.len()
         );
@@ -588,45 +593,36 @@ fn grown_pair(
     Ok(Some(regions))
 }
 
-/// The vertices of `R = W1 ∩ W2` (per-vertex flags) in the parts of `R` (connected over
-/// `adjacency`) holding no vertex next to `W1 \ R` or `W2 \ R`, when some other part holds
-/// one: no Dirichlet border reaches them, so they can carry no partition of unity (a button,
-/// a stud, teeth: separate pieces of the mesh whose every vertex is weighted to both
-/// joints). Ascending; empty when no part has a border at all.
-fn unreached_parts(adjacency: &[Vec<u32>], w1: &[bool], w2: &[bool]) -> Vec<u32> {
-    let in_r = |v: u32| w1[v as usize] && w2[v as usize];
-    let bordered =
-        |v: u32| (adjacency[v as usize].iter()).any(|&u| w1[u as usize] != w2[u as usize]);
-    let mut seen = vec![false; adjacency.len()];
-    let (mut unreached, mut any_reached) = (Vec::new(), false);
-    for start in (0..adjacency.len() as u32).filter(|&v| in_r(v)) {
-        if std::mem::replace(&mut seen[start as usize], true) {
-            continue;
-        }
-        let (mut part, mut stack, mut reached) = (vec![start], vec![start], false);
-        while let Some(v) = stack.pop() {
-            reached |= bordered(v);
-            for &u in &adjacency[v as usize] {
-                if in_r(u) && !std::mem::replace(&mut seen[u as usize], true) {
-                    part.push(u);
-                    stack.push(u);
-                }
-            }
-        }
-        if reached {
-            any_reached = true;
-        } else {
-            unreached.extend(part);
-        }
-    }
-    if !any_reached {
-        // No part has a border: the shared region as a whole has no partition of unity
-        // (Khronos's RiggedSimple, both joints over the whole cylinder), which the partition
-        // reports; nothing is dropped.
+/// The vertices of the separate pieces of the mesh (`pieces`) lying wholly in
+/// `R = W1 ∩ W2` (per-vertex flags), when another piece holds only part of `R`: no border of
+/// `R` reaches them, so they can carry no partition of unity (a button, a stud, teeth: every
+/// vertex weighted to both joints). Ascending; empty when every piece holding `R` lies
+/// wholly in it (Khronos's RiggedSimple, both joints over the whole cylinder: the partition
+/// reports that region).
+fn pieces_wholly_in_r(
+    pieces: &Components,
+    triangles: &[[u32; 3]],
+    w1: &[bool],
+    w2: &[bool],
+) -> Vec<u32> {
+    if pieces.len() < 2 {
         return Vec::new();
     }
-    unreached.sort_unstable();
-    unreached
+    let in_r = |v: &&u32| w1[**v as usize] && w2[**v as usize];
+    let (mut whole, mut partial) = (Vec::new(), false);
+    for c in 0..pieces.len() as u32 {
+        let vertices = pieces.vertices_of(c, triangles);
+        match vertices.iter().filter(in_r).count() {
+            0 => {}
+            k if k == vertices.len() => whole.extend(vertices),
+            _ => partial = true,
+        }
+    }
+    if !partial {
+        return Vec::new();
+    }
+    whole.sort_unstable();
+    whole
 }
 
 /// The seeds of W1 and W2: vertices whose weight on the parent joint (skin index `p`), and on

@@ -37,7 +37,7 @@ pub struct FoldPre {
     pub(super) closed: bool,
     /// The surface its inside-twice and closed-surface tests read ([`FoldPre::on_surface`]);
     /// `None`: the whole body's.
-    pub(super) surface: Option<Vec<[u32; 3]>>,
+    pub(super) surface: Option<Arc<Vec<[u32; 3]>>>,
     /// The body's winding-number tree at rest ([`FoldPre::body_winding`]), shared by the
     /// body's folds.
     pub(super) winding: Arc<WindingNumber>,
@@ -102,46 +102,6 @@ impl FoldPre {
     ) -> Result<Self, FoldError> {
         // Only the topology is needed here (no factorization of the whole mesh).
         let closed = crate::mesh::Region::whole(triangles).is_closed();
-        Self::build(rest, triangles, regions, winding, closed)
-    }
-
-    /// The surface the inside-twice test reads, of the body's `triangles`
-    /// ([`FoldPre::on_surface`]).
-    pub(crate) fn inside_surface<'t>(&'t self, triangles: &'t [[u32; 3]]) -> &'t [[u32; 3]] {
-        self.surface.as_deref().unwrap_or(triangles)
-    }
-
-    /// The inside-twice tree of the body's `triangles` at `rest` without the faces `left`
-    /// marks ([`FoldPre::on_surface`]).
-    pub fn surface_winding(
-        rest: &[Point3<f64>],
-        triangles: &[[u32; 3]],
-        left: &[bool],
-    ) -> WindingNumber {
-        let kept = (0..triangles.len() as u32)
-            .filter(|&f| !left.get(f as usize).copied().unwrap_or(false));
-        WindingNumber::with_faces_beta(rest, triangles, kept, INSIDE_BETA)
-    }
-
-    /// The fold on a surface of its body: its `kept` triangles and their inside-twice tree
-    /// ([`FoldPre::surface_winding`]), without separate pieces of the mesh that are not its
-    /// own (other pieces, and those sunk into it or lying inside a larger one at rest,
-    /// [`crate::selfcontact::layers`]). Its inside-twice test and its closed-surface test read
-    /// that surface; the volume solve still reads the whole body, whose other pieces do not
-    /// move and so change no volume difference.
-    pub fn on_surface(&mut self, kept: Vec<[u32; 3]>, winding: Arc<WindingNumber>) {
-        self.closed = crate::mesh::Region::whole(&kept).is_closed();
-        self.surface = Some(kept);
-        self.winding = winding;
-    }
-
-    fn build(
-        rest: &[Point3<f64>],
-        triangles: &[[u32; 3]],
-        regions: PairRegions,
-        winding: Arc<WindingNumber>,
-        closed: bool,
-    ) -> Result<Self, FoldError> {
         let n = rest.len();
         let w1 = WorkingRegion::new(triangles, regions.w1_faces.iter().copied(), n)?;
         let w2 = WorkingRegion::new(triangles, regions.w2_faces.iter().copied(), n)?;
@@ -192,6 +152,36 @@ impl FoldPre {
             shared_adjacency,
             guarded_faces,
         })
+    }
+
+    /// The surface the inside-twice test reads, of the body's `triangles`
+    /// ([`FoldPre::on_surface`]).
+    pub(crate) fn inside_surface<'t>(&'t self, triangles: &'t [[u32; 3]]) -> &'t [[u32; 3]] {
+        self.surface.as_deref().map_or(triangles, Vec::as_slice)
+    }
+
+    /// The inside-twice tree of the body's `triangles` at `rest` without the faces `left`
+    /// marks ([`FoldPre::on_surface`]).
+    pub fn surface_winding(
+        rest: &[Point3<f64>],
+        triangles: &[[u32; 3]],
+        left: &[bool],
+    ) -> WindingNumber {
+        let kept = (0..triangles.len() as u32)
+            .filter(|&f| !left.get(f as usize).copied().unwrap_or(false));
+        WindingNumber::with_faces_beta(rest, triangles, kept, INSIDE_BETA)
+    }
+
+    /// The fold on a surface of its body: its `kept` triangles and their inside-twice tree
+    /// ([`FoldPre::surface_winding`]), without separate pieces of the mesh that are not its
+    /// own (other pieces, and those sunk into it or lying inside a larger one at rest,
+    /// [`crate::selfcontact::layers`]). Its inside-twice test and its closed-surface test read
+    /// that surface; the volume solve still reads the whole body, whose other pieces do not
+    /// move and so change no volume difference.
+    pub fn on_surface(&mut self, kept: Arc<Vec<[u32; 3]>>, winding: Arc<WindingNumber>) {
+        self.closed = crate::mesh::Region::whole(&kept).is_closed();
+        self.surface = Some(kept);
+        self.winding = winding;
     }
 }
 
