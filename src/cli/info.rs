@@ -547,55 +547,66 @@ fn print_self_contact(s: &SelfContactInfo) {
         );
     }
     for p in &s.pairs {
-        let direction = match p.source {
-            _ if p.separated => "separated regions, direction from the normals (Eq. 2)".into(),
-            DirectionSource::Fixed(d) => format!("direction {:?} (configured)", [d.x, d.y, d.z]),
-            DirectionSource::Motion => "direction from the relative motion of the parts".into(),
-            DirectionSource::Skeleton => match p.rest_fold_degrees {
-                Some(a) => format!(
-                    "direction from the skeleton (folded {a:.1} deg at rest: that fold's sense \
-                     is kept past a full fold)"
-                ),
-                None => "direction from the skeleton".into(),
-            },
-        };
-        let own = if p.own_params {
-            format!(
-                ", tau {}, gamma {}, omega {} (this pair's)",
-                p.tau, p.gamma, p.omega
-            )
-        } else {
-            String::new()
-        };
-        let own = if p.free_isolated_crease {
-            format!("{own}, isolated crease vertices out of the zones")
-        } else {
-            own
-        };
+        print_pair(p);
+    }
+}
+
+/// One joint pair of [`print_self_contact`]: what it is, why it was derived, what it runs
+/// without.
+fn print_pair(p: &SelfPairInfo) {
+    let own = if p.own_params {
+        format!(
+            ", tau {}, gamma {}, omega {} (this pair's)",
+            p.tau, p.gamma, p.omega
+        )
+    } else {
+        String::new()
+    };
+    let own = if p.free_isolated_crease {
+        format!("{own}, isolated crease vertices out of the zones")
+    } else {
+        own
+    };
+    println!(
+        "    pair '{}' (body {} '{}', joints '{}' {} '{}'): shared region {} vertices, joint size {}, extent {}, {}{own}",
+        p.name,
+        p.body,
+        p.body_name,
+        p.parent,
+        if p.separated { "vs" } else { "->" },
+        p.child,
+        p.shared,
+        length(p.joint_size),
+        length(p.extent),
+        direction_text(p)
+    );
+    println!("      {}", p.reason);
+    if let Some(line) = left_out_line(p) {
+        println!("      {line}");
+    }
+    if !p.layers.is_empty() {
+        let faces: Vec<String> = p.layers.iter().map(|l| l.faces.to_string()).collect();
         println!(
-            "    pair '{}' (body {} '{}', joints '{}' {} '{}'): shared region {} vertices, joint size {}, extent {}, {direction}{own}",
-            p.name,
-            p.body,
-            p.body_name,
-            p.parent,
-            if p.separated { "vs" } else { "->" },
-            p.child,
-            p.shared,
-            length(p.joint_size),
-            length(p.extent)
+            "      runs without {} separate piece(s) of the mesh sunk into it or lying inside others at rest ({} faces), which follow the skinning",
+            p.layers.len(),
+            faces.join(", ")
         );
-        println!("      {}", p.reason);
-        if let Some(line) = left_out_line(p) {
-            println!("      {line}");
-        }
-        if !p.layers.is_empty() {
-            let faces: Vec<String> = p.layers.iter().map(|l| l.faces.to_string()).collect();
-            println!(
-                "      runs without {} separate piece(s) of the mesh sunk into it or lying inside others at rest ({} faces), which follow the skinning",
-                p.layers.len(),
-                faces.join(", ")
-            );
-        }
+    }
+}
+
+/// Where a pair's mapping direction comes from, as [`print_pair`] says it.
+fn direction_text(p: &SelfPairInfo) -> String {
+    match p.source {
+        _ if p.separated => "separated regions, direction from the normals (Eq. 2)".into(),
+        DirectionSource::Fixed(d) => format!("direction {:?} (configured)", [d.x, d.y, d.z]),
+        DirectionSource::Motion => "direction from the relative motion of the parts".into(),
+        DirectionSource::Skeleton => match p.rest_fold_degrees {
+            Some(a) => format!(
+                "direction from the skeleton (folded {a:.1} deg at rest: that fold's sense \
+                 is kept past a full fold)"
+            ),
+            None => "direction from the skeleton".into(),
+        },
     }
 }
 

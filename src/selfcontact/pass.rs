@@ -11,8 +11,8 @@
 
 use super::direction::{BoneAxes, DirectionSource, Meeting};
 use super::fold::{
-    resolve_detected_in, FoldError, FoldInput, FoldOutcome, FoldOutput, FoldParams, FoldPre,
-    FoldTimings,
+    resolve_detected_in, Detection, FoldError, FoldInput, FoldOutcome, FoldOutput, FoldParams,
+    FoldPre, FoldTimings,
 };
 use super::layers::{Components, InsideMemo, Layer};
 use super::regions::{derive_pairs_reporting, PairRegions, RegionOptions};
@@ -827,44 +827,12 @@ impl SelfContactPass {
             bodies,
             left_penetrating,
         } = frame;
-        let name = &fold.pre.regions.pair.name;
-        let tris = &self.triangles[fold.body];
         let fail = |source: FoldError| FailedFold {
-            name: name.clone(),
+            name: fold.pre.regions.pair.name.clone(),
             error: source.to_string(),
         };
-        if fold.pre.collapsed(bodies.positions(fold.body)) {
-            return Ok(false);
-        }
-        // Detection first: a joint that does not fold into itself costs its detection only.
-        let clock = Instant::now();
-        let posed = bodies.posed(fold.body, &fold.detection);
-        let posed = posed.map_err(|e| fail(e.into()))?;
-        if fold
-            .pre
-            .stretched(posed.positions(), posed.bvh().root_box().as_ref())
-        {
-            return Ok(false);
-        }
-        let detection = fold.pre.detect_on(&posed, &fold.sets, clock);
-        let Some(detection) = detection.map_err(fail)? else {
-            return Ok(false);
-        };
-        let positions = bodies.positions(fold.body);
-        if (self.rest_volumes[fold.body]).is_some_and(|v| v.inside_out(positions, tris)) {
-            if !out.inside_out.contains(&fold.body) {
-                out.inside_out.push(fold.body);
-            }
-            return Ok(false);
-        }
-        // Separated regions take Eq. 2's direction from their contact, inside the fold.
-        let direction = if fold.pre.regions.separated() {
-            Some(Vector3::zeros())
-        } else {
-            self.direction(fold, pose, &detection.vertices)
-        };
-        let Some(direction) = direction else {
-            out.no_direction += 1;
+        let Some((detection, direction)) = self.gates(fold, pose, bodies, out).map_err(fail)?
+        else {
             return Ok(false);
         };
         // The turn guard's references: the frame's input (copied at the frame's first fold
@@ -882,6 +850,7 @@ impl SelfContactPass {
             .is_some()
             .then_some(frame_input.as_deref())
             .flatten();
+        let tris = &self.triangles[fold.body];
         let (pos, normals, winding) =
             bodies.for_fold(fold.winding_slot, fold.body, tris, || fold.pre.body_tree());
         let normal = |v: usize| skinned.as_ref().map_or_else(Vector3::zeros, |s| s.at(v));
@@ -910,6 +879,51 @@ impl SelfContactPass {
         };
         bodies.replace(fold.body, &o.positions);
         Ok(out.record(fold, direction, *o))
+    }
+
+    /// What a fold passes, cheapest first, before it is resolved in a sweep: not collapsed nor
+    /// stretched, intersecting itself (its detection, with the body's tree refit), its body
+    /// not inside out (reported in `out`), a mapping direction (its lack counted in `out`).
+    /// The detection and `d̂_12` (zero for separated regions, which take Eq. 2's from their
+    /// contact inside the fold), `None` when the fold does not run.
+    fn gates(
+        &self,
+        fold: &Fold,
+        pose: &Pose,
+        bodies: &mut PosedBodies,
+        out: &mut SelfPassOutput,
+    ) -> Result<Option<(Detection, Vector3<f64>)>, FoldError> {
+        if fold.pre.collapsed(bodies.positions(fold.body)) {
+            return Ok(None);
+        }
+        // Detection first: a joint that does not fold into itself costs its detection only.
+        let clock = Instant::now();
+        let posed = bodies.posed(fold.body, &fold.detection)?;
+        if fold
+            .pre
+            .stretched(posed.positions(), posed.bvh().root_box().as_ref())
+        {
+            return Ok(None);
+        }
+        let Some(detection) = fold.pre.detect_on(&posed, &fold.sets, clock)? else {
+            return Ok(None);
+        };
+        let (positions, tris) = (bodies.positions(fold.body), &self.triangles[fold.body]);
+        if (self.rest_volumes[fold.body]).is_some_and(|v| v.inside_out(positions, tris)) {
+            if !out.inside_out.contains(&fold.body) {
+                out.inside_out.push(fold.body);
+            }
+            return Ok(None);
+        }
+        let direction = if fold.pre.regions.separated() {
+            Some(Vector3::zeros())
+        } else {
+            self.direction(fold, pose, &detection.vertices)
+        };
+        if direction.is_none() {
+            out.no_direction += 1;
+        }
+        Ok(direction.map(|d| (detection, d)))
     }
 }
 

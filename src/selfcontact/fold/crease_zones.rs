@@ -62,6 +62,19 @@ pub(super) struct CreaseVertices<'a> {
     pub(super) left_penetrating: Option<&'a [bool]>,
 }
 
+impl<'a> CreaseVertices<'a> {
+    /// The frame's `crease` on the body `g`, tested with `test`.
+    pub(super) fn of(g: &FoldInput<'a>, crease: &'a Crease, test: &'a InsideTwice<'a>) -> Self {
+        Self {
+            on_w1: &crease.on_w1,
+            positions: g.positions,
+            normals: g.normals,
+            test,
+            left_penetrating: g.left_penetrating,
+        }
+    }
+}
+
 /// The crease vertices (on an edge of `R` across the cut) outside the zones and not left
 /// penetrating by the sweep before, each with the zone it would join (its own side's, else the
 /// other's, whose sample is [`conditioned`]), in the order of `R`'s edges. Zones are extended,

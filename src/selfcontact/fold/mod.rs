@@ -232,13 +232,7 @@ pub fn resolve_detected_in(
         .then(|| InsideTwice::new(std::borrow::Cow::Borrowed(&*winding), positions, surface));
     let tree = inside.as_ref();
     let separated = pre.regions.separated();
-    // Separated regions have no cut: their sides are apart by construction.
-    let (crease, unseparated, truncated) = if separated {
-        let (crease, parts) = separated_parts(pre, positions, triangles)?;
-        (crease, 0, parts)
-    } else {
-        cut_the_crease(pre, detection, geometry, tree, params)?
-    };
+    let (crease, unseparated, truncated) = partition(pre, detection, geometry, tree, params)?;
     timings.crease = laps.next();
     // Separated regions: their intersection regions are apart, so Eq. 2 applies (Sec. 6
     // replaces it by the skeleton's direction only where the regions overlap).
@@ -272,16 +266,9 @@ pub fn resolve_detected_in(
         return Ok(FoldOutcome::Apart);
     }
     if let Some(tree) = tree.filter(|_| !separated) {
-        let crease_input = CreaseVertices {
-            on_w1: &crease.on_w1,
-            positions,
-            normals,
-            test: tree,
-            left_penetrating: geometry.left_penetrating,
-        };
         zones_to_the_crease(
             pre,
-            &crease_input,
+            &CreaseVertices::of(geometry, &crease, tree),
             &mut contact,
             params.free_isolated_crease,
         );
@@ -362,6 +349,23 @@ impl Laps {
         self.mark = now;
         step
     }
+}
+
+/// The fold's two parts in this frame: the crease cut's truncated regions with the count of
+/// the detection's crossing pairs it leaves on one side ([`cut_the_crease`]), or separated
+/// regions as they are, with no cut (their sides are apart by construction, 0 such pairs).
+fn partition<'p>(
+    pre: &'p FoldPre,
+    detection: &Detection,
+    g: &FoldInput,
+    tree: Option<&InsideTwice>,
+    params: &FoldParams,
+) -> Result<(Crease, usize, Truncated<'p>), FoldError> {
+    if pre.regions.separated() {
+        let (crease, parts) = separated_parts(pre, g.positions, g.triangles)?;
+        return Ok((crease, 0, parts));
+    }
+    cut_the_crease(pre, detection, g, tree, params)
 }
 
 /// Sec. 6 "Crease detection & Partitioning": the min-cut of `R` (intersection terms on the
