@@ -113,6 +113,12 @@ fn bench(c: &mut Criterion) {
         g.bench_function(format!("{name}/no-contact frame/1 thread"), |b| {
             b.iter(|| one.install(|| black_box(s.pass.run(&rest).expect("pass"))))
         });
+        // The default two passes (`pose`'s), the measurement loop on the pool's thread (no
+        // hand-over per iteration): a frame without contact runs its first pass only.
+        let two = scene(name, 2);
+        g.bench_function(format!("{name}/no-contact frame/2 passes/1 thread"), |b| {
+            one.install(|| b.iter(|| black_box(two.pass.run(&rest).expect("pass"))))
+        });
         g.bench_function(format!("{name}/skinning + weld/1 thread"), |b| {
             b.iter(|| {
                 one.install(|| black_box(frames::welded_positions(&s.rig, &s.pre, Some(0), last)))

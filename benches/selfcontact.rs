@@ -186,20 +186,23 @@ fn bench(c: &mut Criterion) {
         });
     }
     // A frame before contact (frame 2 of 61): the pass should cost about the skinning alone.
+    // Each measurement loop runs inside the one-thread pool (`on_one_thread`), not each
+    // iteration: a hand-over to the pool per iteration (about 30 µs) would be counted in
+    // every time of a few hundred microseconds.
     for name in ["finger", "bending_capsule"] {
         let (rig, pre, pass, times) = setup(name, 2);
         let t = times[2];
         let input = frames::welded_positions(&rig, &pre, Some(0), t);
         let pose = rig.pose_at(Some(0), t);
         g.bench_function(format!("{name}/frame without contact/skinning"), |b| {
-            b.iter(|| pool.install(|| black_box(frames::welded_positions(&rig, &pre, Some(0), t))))
+            on_one_thread(&pool, b, || {
+                black_box(frames::welded_positions(&rig, &pre, Some(0), t))
+            })
         });
         g.bench_function(format!("{name}/frame without contact/pass"), |b| {
-            b.iter(|| {
-                pool.install(|| {
-                    let mut pos = input.clone();
-                    black_box(pass.run(&rig, &pose, &mut pos).expect("pass"))
-                })
+            on_one_thread(&pool, b, || {
+                let mut pos = input.clone();
+                black_box(pass.run(&rig, &pose, &mut pos).expect("pass"))
             })
         });
         // With the skeleton's separated regions (the CLI's default): the finger's two more
@@ -208,11 +211,9 @@ fn bench(c: &mut Criterion) {
         g.bench_function(
             format!("{name}/frame without contact/pass, skeleton pairs"),
             |b| {
-                b.iter(|| {
-                    pool.install(|| {
-                        let mut pos = input.clone();
-                        black_box(skeleton.run(&rig, &pose, &mut pos).expect("pass"))
-                    })
+                on_one_thread(&pool, b, || {
+                    let mut pos = input.clone();
+                    black_box(skeleton.run(&rig, &pose, &mut pos).expect("pass"))
                 })
             },
         );
@@ -220,23 +221,31 @@ fn bench(c: &mut Criterion) {
         // with its normals, the contact pass between bodies, the self-contact pass.
         let object = common::object_pass(&rig, &pre);
         g.bench_function(format!("{name}/frame without contact/whole frame"), |b| {
-            b.iter(|| {
-                pool.install(|| {
-                    let frame = frames::evaluate(&rig, &pre, Some(0), 2, t);
-                    let welded = frame.welded(&pre);
-                    let out = object.run_at(&welded, t).expect("contact pass");
-                    let mut pos = out.positions;
-                    let pose = rig.pose_at(Some(0), t);
-                    let normals = frame.welded_normals(&pre);
-                    let done = skeleton.run_with_normals(&rig, &pose, &mut pos, &normals);
-                    black_box(done.expect("pass"))
-                })
+            on_one_thread(&pool, b, || {
+                let frame = frames::evaluate(&rig, &pre, Some(0), 2, t);
+                let welded = frame.welded(&pre);
+                let out = object.run_at(&welded, t).expect("contact pass");
+                let mut pos = out.positions;
+                let pose = rig.pose_at(Some(0), t);
+                let normals = frame.welded_normals(&pre);
+                let done = skeleton.run_with_normals(&rig, &pose, &mut pos, &normals);
+                black_box(done.expect("pass"))
             })
         });
     }
     g.finish();
     batch(c);
     turn_guard(c);
+}
+
+/// Criterion's measurement loop of `b` on `pool`'s thread: every iteration runs `routine`
+/// there, with no hand-over to the pool per iteration.
+fn on_one_thread<R>(
+    pool: &rayon::ThreadPool,
+    b: &mut criterion::Bencher,
+    routine: impl Fn() -> R + Sync,
+) {
+    pool.install(|| b.iter(&routine));
 }
 
 /// The turn guard's cost where it acts: the bending capsule skinned with CoR (whose folds it
