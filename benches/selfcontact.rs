@@ -187,7 +187,7 @@ fn bench(c: &mut Criterion) {
     }
     // A frame before contact (frame 2 of 61): the pass should cost about the skinning alone.
     // Each measurement loop runs inside the one-thread pool (`on_one_thread`), not each
-    // iteration: a hand-over to the pool per iteration (about 30 µs) would be counted in
+    // iteration: a hand-over to the pool per iteration (30-45 µs) would be counted in
     // every time of a few hundred microseconds.
     for name in ["finger", "bending_capsule"] {
         let (rig, pre, pass, times) = setup(name, 2);
