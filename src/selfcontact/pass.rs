@@ -429,14 +429,7 @@ impl SelfContactPass {
             }
         }
         (left.iter().zip(&self.triangles))
-            .map(|(flags, tris)| {
-                (!flags.is_empty()).then(|| {
-                    (tris.iter().zip(flags))
-                        .filter(|(_, &l)| !l)
-                        .map(|(t, _)| *t)
-                        .collect()
-                })
-            })
+            .map(|(flags, tris)| (!flags.is_empty()).then(|| triangles_without(tris, flags)))
             .collect()
     }
 
@@ -1319,8 +1312,7 @@ impl Surfaces {
         (rest, triangles): (&[Point3<f64>], &[[u32; 3]]),
         components: &Components,
     ) {
-        let regions = &fold.pre.regions;
-        let own = components.of_faces(regions.w1_faces.iter().chain(&regions.w2_faces).copied());
+        let own = pieces_of(components, &fold.pre.regions);
         let others: Vec<u32> = (0..components.len() as u32)
             .filter(|c| own.binary_search(c).is_err())
             .collect();
@@ -1332,10 +1324,7 @@ impl Surfaces {
             .entry(others)
             .or_insert_with_key(|others| {
                 let left = components.faces_in(others);
-                let kept: Vec<[u32; 3]> = (triangles.iter().zip(&left))
-                    .filter(|(_, &l)| !l)
-                    .map(|(t, _)| *t)
-                    .collect();
+                let kept = triangles_without(triangles, &left);
                 let tree = Arc::new(FoldPre::surface_winding(rest, triangles, &left));
                 (tree, Arc::new(kept), next)
             });
@@ -1360,19 +1349,33 @@ fn layers_of(
 ) -> Vec<u32> {
     let components = &pieces.components;
     let regions = &fold.pre.regions;
-    let faces = || regions.w1_faces.iter().chain(&regions.w2_faces).copied();
-    let own = components.of_faces(faces());
+    let own = pieces_of(components, regions);
     let mut layers = components.layers_of(face_pairs);
     layers.extend(components.inside_larger(rest, triangles, &own, &mut pieces.memo));
     if !regions.separated() {
         let in_r = |v: &u32| regions.w1[*v as usize] && regions.w2[*v as usize];
-        let holding = faces().filter(|&f| triangles[f as usize].iter().any(in_r));
+        let faces = regions.w1_faces.iter().chain(&regions.w2_faces).copied();
+        let holding = faces.filter(|&f| triangles[f as usize].iter().any(in_r));
         let holding = components.of_faces(holding);
         layers.extend(own.iter().filter(|c| holding.binary_search(c).is_err()));
     }
     layers.sort_unstable();
     layers.dedup();
     layers
+}
+
+/// The pieces of the mesh ([`Components`]) holding faces of `regions`' `W1` or `W2`
+/// (ascending).
+fn pieces_of(components: &Components, regions: &PairRegions) -> Vec<u32> {
+    components.of_faces(regions.w1_faces.iter().chain(&regions.w2_faces).copied())
+}
+
+/// The `triangles` whose flag in `left` is not set (a triangle past `left` is kept).
+fn triangles_without(triangles: &[[u32; 3]], left: &[bool]) -> Vec<[u32; 3]> {
+    (triangles.iter().enumerate())
+        .filter(|&(f, _)| !left.get(f).copied().unwrap_or(false))
+        .map(|(_, t)| *t)
+        .collect()
 }
 
 /// `fold` without the pieces `layers` of its body ([`super::layers`]), when its regions keep
