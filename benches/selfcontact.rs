@@ -222,11 +222,11 @@ fn bench(c: &mut Criterion) {
         let object = common::object_pass(&rig, &pre);
         g.bench_function(format!("{name}/frame without contact/whole frame"), |b| {
             on_one_thread(&pool, b, || {
-                let frame = frames::evaluate(&rig, &pre, Some(0), 2, t);
+                let pose = rig.pose_at(Some(0), t);
+                let frame = frames::evaluate_pose(&rig, &pre, &pose, 2, t);
                 let welded = frame.welded(&pre);
                 let out = object.run_at(&welded, t).expect("contact pass");
                 let mut pos = out.positions;
-                let pose = rig.pose_at(Some(0), t);
                 let normals = frame.welded_normals(&pre);
                 let done = skeleton.run_with_normals(&rig, &pose, &mut pos, &normals);
                 black_box(done.expect("pass"))

@@ -201,7 +201,9 @@ pub fn run_frame(
     index: usize,
     t: f64,
 ) -> Result<ContactFrame, String> {
-    let input = frames::evaluate(rig, pre, animation, index, t);
+    // One pose for the skinning and the self-contact pass's skeleton directions.
+    let pose = rig.pose_at(animation, t);
+    let input = frames::evaluate_pose(rig, pre, &pose, index, t);
     let before = input.welded(pre);
     let output = run
         .pass
@@ -211,7 +213,6 @@ pub fn run_frame(
     let (mut self_output, mut self_wall) = (None, 0.0);
     if let Some(s) = &run.self_contact {
         let clock = Instant::now();
-        let pose = rig.pose_at(animation, t);
         let normals = input.welded_normals(pre);
         let out = s
             .pass

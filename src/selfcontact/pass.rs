@@ -725,7 +725,7 @@ impl SelfContactPass {
                     p.len()
                 )));
             }
-            if let Some(vertex) = first_non_finite(p) {
+            if let Some(vertex) = crate::mesh::first_non_finite(p) {
                 return Err(SelfPassError::NonFinite { body: b, vertex });
             }
         }
@@ -954,18 +954,6 @@ struct Frame<'f, 'p> {
     bodies: &'f mut PosedBodies<'p>,
     /// Per body, the vertices the sweep before left penetrating ([`FurtherSweeps::left`]).
     left_penetrating: &'f [Vec<bool>],
-}
-
-/// The first point with a non-finite coordinate. A finite coordinate times zero is zero, NaN or
-/// an infinity gives NaN: one branch-free sum over the points decides (a sum that overflowed
-/// to infinity only sends it to the search), the search runs only when the sum is not zero
-/// (the check of every frame's input, 7 % of a frame's pass on the finger as a search alone).
-fn first_non_finite(points: &[Point3<f64>]) -> Option<usize> {
-    let probe: f64 = points.iter().map(|p| (p.x + p.y + p.z) * 0.0).sum();
-    if probe == 0.0 {
-        return None;
-    }
-    points.iter().position(|p| !p.iter().all(|c| c.is_finite()))
 }
 
 /// One normal per position, per body.
@@ -1496,20 +1484,6 @@ impl LinearNormals<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// The fast probe does not take huge finite points for non-finite ones (their sum
-    /// overflows), and finds the first NaN or infinite one.
-    #[test]
-    fn the_first_non_finite_point_is_found() {
-        let huge = Point3::new(1e308, 1e308, 1e308);
-        let mut p = vec![Point3::origin(), huge, huge];
-        assert_eq!(first_non_finite(&p), None);
-        assert_eq!(first_non_finite(&[]), None);
-        p[2].z = f64::INFINITY;
-        assert_eq!(first_non_finite(&p), Some(2));
-        p[1].y = f64::NAN;
-        assert_eq!(first_non_finite(&p), Some(1));
-    }
 
     /// Two ellipsoids crossing at right angles, rigid on sibling joints: the
     /// skeleton's separated pair (the siblings' subtrees) crosses itself at rest. Centered, the
