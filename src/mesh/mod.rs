@@ -417,6 +417,16 @@ mod tests {
         assert_eq!(first_non_finite(&p), Some(2));
         p[1].y = f64::NAN;
         assert_eq!(first_non_finite(&p), Some(1));
+        // Past the first group of four, in a group and in the remainder, on each lane.
+        let finite: Vec<Point3<f64>> = (0..11).map(|i| Point3::new(i as f64, 1.0, -2.0)).collect();
+        assert_eq!(first_non_finite(&finite), None);
+        for i in 0..finite.len() {
+            for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+                let mut q = finite.clone();
+                q[i][i % 3] = bad;
+                assert_eq!(first_non_finite(&q), Some(i), "point {i}, {bad}");
+            }
+        }
     }
 
     /// A closed tetrahedron has a rest volume, an open or doubly used one none; mirrored, its
