@@ -21,6 +21,7 @@
 //! The trade-off: a layer is not pushed by the fold, so the skin under it may bulge through
 //! it, as it does in the skinning when the layer is thin.
 
+use crate::intersect::Aabb;
 use crate::report::metrics::{WindingNumber, WINDING_BETA};
 use nalgebra::Point3;
 use petgraph::unionfind::UnionFind;
@@ -35,7 +36,7 @@ pub struct Components {
     parts: Vec<Layer>,
     /// Per component: its faces (ascending) and the bounding box of its corners at rest.
     faces: Vec<Vec<u32>>,
-    boxes: Vec<(Point3<f64>, Point3<f64>)>,
+    boxes: Vec<Aabb>,
 }
 
 /// What [`Components::inside_larger`] keeps between its calls on one mesh: the pieces
@@ -78,7 +79,7 @@ impl Components {
         let mut counted = vec![false; n];
         let mut of_face = Vec::with_capacity(triangles.len());
         let mut faces: Vec<Vec<u32>> = Vec::new();
-        let mut boxes: Vec<(Point3<f64>, Point3<f64>)> = Vec::new();
+        let mut boxes: Vec<Aabb> = Vec::new();
         for (f, t) in triangles.iter().enumerate() {
             if !valid(t) {
                 of_face.push(u32::MAX);
@@ -94,8 +95,7 @@ impl Components {
                     first_vertex: u32::MAX,
                 });
                 faces.push(Vec::new());
-                let far = Point3::from([f64::INFINITY; 3]);
-                boxes.push((far, -far));
+                boxes.push(Aabb::EMPTY);
             }
             let part = &mut parts[id[root] as usize];
             part.faces += 1;
@@ -110,8 +110,7 @@ impl Components {
             for &v in t {
                 part.first_vertex = part.first_vertex.min(v);
                 part.vertices += usize::from(!std::mem::replace(&mut counted[v as usize], true));
-                let p = &rest[v as usize];
-                *b = (b.0.inf(p), b.1.sup(p));
+                *b = b.grown(&rest[v as usize]);
             }
             of_face.push(id[root]);
         }
@@ -217,10 +216,10 @@ impl Components {
         trees: &mut HashMap<u32, WindingNumber>,
     ) -> bool {
         let vertices = self.vertices_of(c, triangles);
-        let (lo, hi) = self.boxes[c as usize];
+        let own = &self.boxes[c as usize];
         let enclosing = (0..self.parts.len() as u32).filter(|&o| {
-            let (olo, ohi) = self.boxes[o as usize];
-            let holds = (0..3).all(|k| olo[k] <= lo[k] && hi[k] <= ohi[k]);
+            let other = &self.boxes[o as usize];
+            let holds = other.contains(&own.min) && other.contains(&own.max);
             o != c && self.smaller(c, o) == c && holds
         });
         for o in enclosing {
