@@ -10,12 +10,13 @@ use super::IntersectError;
 use nalgebra::{Point3, Vector3};
 use rayon::prelude::*;
 
-/// Faces per leaf at most (unless their centroids coincide). 8 rather than 4: a self-contact
-/// pass without contact (mostly this tree's refit at its nodes and its pair traversals) took
-/// 54 instead of 58 µs on the finger and 28 instead of 30 µs on the bending capsule (one
-/// thread, medians of 20,000 frames, 2026-12-05); 16 took 64 µs on the finger. The folds and the contact pass
-/// between bodies (ray casts, pair queries) did not change beyond the machine's noise, and
-/// neither did any output (every face pair and farthest hit is the same on any tree).
+/// Faces per leaf at most (faces with coincident centroids are split in the middle of their
+/// order, `split`). 8 rather than 4: a self-contact pass without contact (mostly this tree's
+/// refit at its nodes and its pair traversals) took 54 instead of 58 µs on the finger and 28
+/// instead of 30 µs on the bending capsule (one thread, medians of 20,000 frames, 2026-12-05);
+/// 16 took 64 µs on the finger. The folds and the contact pass between bodies (ray casts, pair
+/// queries) did not change beyond the machine's noise, and neither did any output (every face
+/// pair and farthest hit is the same on any tree).
 const MAX_LEAF: usize = 8;
 /// SAH bins per split.
 const BINS: usize = 12;
