@@ -105,23 +105,20 @@ fn bench(c: &mut Criterion) {
         let deep = frames::welded_positions(&s.rig, &s.pre, Some(0), last);
         let rest = frames::welded_positions(&s.rig, &s.pre, Some(0), 0.0);
         g.bench_function(format!("{name}/deepest frame/1 pass/1 thread"), |b| {
-            b.iter(|| one.install(|| black_box(s.pass.run(&deep).expect("pass"))))
+            common::on_one_thread(&one, b, || black_box(s.pass.run(&deep).expect("pass")))
         });
         g.bench_function(format!("{name}/deepest frame/1 pass/all threads"), |b| {
             b.iter(|| black_box(s.pass.run(&deep).expect("pass")))
         });
-        g.bench_function(format!("{name}/no-contact frame/1 thread"), |b| {
-            b.iter(|| one.install(|| black_box(s.pass.run(&rest).expect("pass"))))
-        });
-        // The default two passes (`pose`'s), the measurement loop on the pool's thread (no
-        // hand-over per iteration): a frame without contact runs its first pass only.
+        // At `pose`'s default two passes, of which a frame without contact runs the first only
+        // (the same time as at one pass: one entry measures both).
         let two = scene(name, 2);
         g.bench_function(format!("{name}/no-contact frame/2 passes/1 thread"), |b| {
-            one.install(|| b.iter(|| black_box(two.pass.run(&rest).expect("pass"))))
+            common::on_one_thread(&one, b, || black_box(two.pass.run(&rest).expect("pass")))
         });
         g.bench_function(format!("{name}/skinning + weld/1 thread"), |b| {
-            b.iter(|| {
-                one.install(|| black_box(frames::welded_positions(&s.rig, &s.pre, Some(0), last)))
+            common::on_one_thread(&one, b, || {
+                black_box(frames::welded_positions(&s.rig, &s.pre, Some(0), last))
             })
         });
     }

@@ -7,16 +7,15 @@
 
 use contact_skin::frames::{self, Precomputed};
 use contact_skin::output::obj;
-use contact_skin::rig;
 use contact_skin::skinning::Method;
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
-use std::path::Path;
 use std::time::Duration;
 
+mod common;
+
 fn bench(c: &mut Criterion) {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("rigs/finger_long.glb");
-    let rig = rig::load(&path).expect("rig");
+    let rig = common::committed_rig("finger_long");
     let pre = Precomputed::new(&rig, Method::Lbs);
     let frame = frames::evaluate(&rig, &pre, Some(0), 3, 0.5);
     let faces = obj::ObjFaces::of(&rig);
@@ -33,7 +32,9 @@ fn bench(c: &mut Criterion) {
         b.iter(|| black_box(obj::frame_to_obj_with(&faces, &frame, "header")))
     });
     g.bench_function("finger_long/skinning", |b| {
-        b.iter(|| one.install(|| black_box(frames::evaluate(&rig, &pre, Some(0), 3, 0.5))))
+        common::on_one_thread(&one, b, || {
+            black_box(frames::evaluate(&rig, &pre, Some(0), 3, 0.5))
+        })
     });
     g.finish();
 }

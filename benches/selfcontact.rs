@@ -177,30 +177,25 @@ fn bench(c: &mut Criterion) {
         let input = frames::welded_positions(&rig, &pre, Some(0), t);
         let pose = rig.pose_at(Some(0), t);
         g.bench_function(format!("{name}/deepest frame/1 sweep/1 thread"), |b| {
-            b.iter(|| {
-                pool.install(|| {
-                    let mut pos = input.clone();
-                    black_box(pass.run(&rig, &pose, &mut pos).expect("pass"))
-                })
+            common::on_one_thread(&pool, b, || {
+                let mut pos = input.clone();
+                black_box(pass.run(&rig, &pose, &mut pos).expect("pass"))
             })
         });
     }
     // A frame before contact (frame 2 of 61): the pass should cost about the skinning alone.
-    // Each measurement loop runs inside the one-thread pool (`on_one_thread`), not each
-    // iteration: a hand-over to the pool per iteration (30-45 µs) would be counted in
-    // every time of a few hundred microseconds.
     for name in ["finger", "bending_capsule"] {
         let (rig, pre, pass, times) = setup(name, 2);
         let t = times[2];
         let input = frames::welded_positions(&rig, &pre, Some(0), t);
         let pose = rig.pose_at(Some(0), t);
         g.bench_function(format!("{name}/frame without contact/skinning"), |b| {
-            on_one_thread(&pool, b, || {
+            common::on_one_thread(&pool, b, || {
                 black_box(frames::welded_positions(&rig, &pre, Some(0), t))
             })
         });
         g.bench_function(format!("{name}/frame without contact/pass"), |b| {
-            on_one_thread(&pool, b, || {
+            common::on_one_thread(&pool, b, || {
                 let mut pos = input.clone();
                 black_box(pass.run(&rig, &pose, &mut pos).expect("pass"))
             })
@@ -211,7 +206,7 @@ fn bench(c: &mut Criterion) {
         g.bench_function(
             format!("{name}/frame without contact/pass, skeleton pairs"),
             |b| {
-                on_one_thread(&pool, b, || {
+                common::on_one_thread(&pool, b, || {
                     let mut pos = input.clone();
                     black_box(skeleton.run(&rig, &pose, &mut pos).expect("pass"))
                 })
@@ -221,7 +216,7 @@ fn bench(c: &mut Criterion) {
         // with its normals, the contact pass between bodies, the self-contact pass.
         let object = common::object_pass(&rig, &pre);
         g.bench_function(format!("{name}/frame without contact/whole frame"), |b| {
-            on_one_thread(&pool, b, || {
+            common::on_one_thread(&pool, b, || {
                 let pose = rig.pose_at(Some(0), t);
                 let frame = frames::evaluate_pose(&rig, &pre, &pose, 2, t);
                 let welded = frame.welded(&pre);
@@ -236,16 +231,6 @@ fn bench(c: &mut Criterion) {
     g.finish();
     batch(c);
     turn_guard(c);
-}
-
-/// Criterion's measurement loop of `b` on `pool`'s thread: every iteration runs `routine`
-/// there, with no hand-over to the pool per iteration.
-fn on_one_thread<R>(
-    pool: &rayon::ThreadPool,
-    b: &mut criterion::Bencher,
-    routine: impl Fn() -> R + Sync,
-) {
-    pool.install(|| b.iter(&routine));
 }
 
 /// The turn guard's cost where it acts: the bending capsule skinned with CoR (whose folds it
