@@ -1,0 +1,137 @@
+//! Reading a rig's animations: channels per node and property, their keys checked.
+
+use super::invalid;
+use crate::rig::accessor::{self, Source};
+use crate::rig::animation::{Animation, Channel, Interpolation, Property};
+use crate::rig::skeleton::unit_quaternion;
+use crate::rig::RigError;
+
+/// Every animation: its channels, one per animated node and property, their keys read and
+/// checked.
+pub(super) fn read_animations(
+    src: &Source,
+    doc: &gltf::Document,
+    warnings: &mut Vec<String>,
+) -> Result<Vec<Animation>, RigError> {
+    let mut out = Vec::new();
+    for anim in doc.animations() {
+        let mut channels = Vec::new();
+        for ch in anim.channels() {
+            let at = format!("animations[{}].channels[{}]", anim.index(), ch.index());
+            let property = match ch.target().property() {
+                gltf::animation::Property::Translation => Property::Translation,
+                gltf::animation::Property::Rotation => Property::Rotation,
+                gltf::animation::Property::Scale => Property::Scale,
+                gltf::animation::Property::MorphTargetWeights => {
+                    warnings.push(format!(
+                        "{at}: morph target weights are not posed (ignored)"
+                    ));
+                    continue;
+                }
+            };
+            let mut channel = read_channel(src, doc, &ch, &at, property)?;
+            if property == Property::Rotation {
+                let rest = ch.target().node().transform().decomposed().1;
+                let zeros = replace_zero_rotations(&mut channel, rest.map(f64::from));
+                if zeros > 0 {
+                    warnings.push(format!(
+                        "{at}: {zeros} rotation key(s) are zero quaternions (not a rotation): \
+                         read as the node's rest rotation"
+                    ));
+                }
+            }
+            channels.push(channel);
+        }
+        out.push(Animation::new(anim.name().map(str::to_string), channels));
+    }
+    Ok(out)
+}
+
+/// Replaces the zero quaternions ([`unit_quaternion`]'s `None`) among a rotation channel's key
+/// values (each key's value; a cubic spline's tangents left as they are) by `rest`
+/// (`[x, y, z, w]`); their number.
+/// Sampling would otherwise read them as the identity between keys and as the rest rotation at
+/// a key (until 2026-12-05, without a word).
+fn replace_zero_rotations(channel: &mut Channel, rest: [f64; 4]) -> usize {
+    let cubic = channel.interpolation == Interpolation::CubicSpline;
+    let (stride, value) = if cubic { (12, 4) } else { (4, 0) };
+    let mut zeros = 0;
+    for key in channel.values.chunks_exact_mut(stride) {
+        let q = &mut key[value..value + 4];
+        if unit_quaternion([q[0], q[1], q[2], q[3]]).is_none() {
+            q.copy_from_slice(&rest);
+            zeros += 1;
+        }
+    }
+    zeros
+}
+
+fn read_channel(
+    src: &Source,
+    doc: &gltf::Document,
+    ch: &gltf::animation::Channel,
+    at: &str,
+    property: Property,
+) -> Result<Channel, RigError> {
+    let sampler = ch.sampler();
+    let interpolation = match sampler.interpolation() {
+        gltf::animation::Interpolation::Linear => Interpolation::Linear,
+        gltf::animation::Interpolation::Step => Interpolation::Step,
+        gltf::animation::Interpolation::CubicSpline => Interpolation::CubicSpline,
+    };
+    let input = accessor::read(
+        src,
+        doc,
+        sampler.input().index(),
+        &format!("input of {at}"),
+        &[1],
+        false,
+    )?;
+    let times = input.data;
+    if times.is_empty() {
+        return Err(invalid(src.file, at, "sampler input has no key"));
+    }
+    if times.iter().any(|t| !t.is_finite()) || times.windows(2).any(|w| w[1] <= w[0]) {
+        return Err(invalid(
+            src.file,
+            at,
+            "key times are not finite and strictly increasing",
+        ));
+    }
+    let comps = property.components();
+    let output = accessor::read(
+        src,
+        doc,
+        sampler.output().index(),
+        &format!("output of {at}"),
+        &[comps],
+        false,
+    )?;
+    let per_key = if interpolation == Interpolation::CubicSpline {
+        3
+    } else {
+        1
+    };
+    if output.count() != times.len() * per_key {
+        return Err(invalid(
+            src.file,
+            at,
+            format!(
+                "{} output values for {} keys ({:?})",
+                output.count(),
+                times.len(),
+                interpolation
+            ),
+        ));
+    }
+    if output.data.iter().any(|x| !x.is_finite()) {
+        return Err(invalid(src.file, at, "output holds a non-finite value"));
+    }
+    Ok(Channel {
+        node: ch.target().node().index(),
+        property,
+        interpolation,
+        times,
+        values: output.data,
+    })
+}
