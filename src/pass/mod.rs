@@ -8,8 +8,7 @@
 //! the thread count.
 
 use crate::contact::{
-    crossing, resolve_crossing, Contact, ContactError, ContactSide, DirectionMode, PairOutcome,
-    PairParams,
+    crossing, resolve_crossing, ContactError, ContactSide, DirectionMode, PairOutcome, PairParams,
 };
 use crate::deform::{
     deform_region, DeformError, DeformParams, RegionDeformation, RegionFrame, WorkingRegion,
@@ -22,6 +21,12 @@ use nalgebra::{Point3, Vector3};
 use rayon::prelude::*;
 use std::sync::OnceLock;
 use std::time::Instant;
+
+mod output;
+mod params;
+
+pub use output::{BodyDiagnostics, ContactSummary, FailedContact, PassOutput, StageTimings};
+pub use params::{DirectionTrack, ObjectParams, PairOverride, RestOverlaps, DEFAULT_EXTENT_FACTOR};
 
 /// A body at rest: welded positions and triangles.
 pub type RestBody<'a> = (&'a [Point3<f64>], &'a [[u32; 3]]);
@@ -38,152 +43,8 @@ pub fn rest_bodies<'a>(
         .collect()
 }
 
-/// Default `φ̄` as a fraction of the object's rest size ([`crate::mesh::surface_size`]): one
-/// half, as when the size was the diagonal of the object's axis-aligned rest bounding box
-/// (until 2026-12-02; a rotation of the rig changed it). On the committed object scenes the
-/// two sizes agree to 0.3 % (balls), 2 % (capsules), 7 % (fingertips) and 11 % (the slab), and
-/// the scenes' metrics are those of the former default. A diameter-based default, also
-/// rotation-invariant, fitted either round or long objects, not both (half a diameter let the
-/// sphere on the slab keep 38 penetrating vertices; √3/2 of one made the fingertips 45 %
-/// slower).
-pub const DEFAULT_EXTENT_FACTOR: f64 = 0.5;
-
 /// Default number of passes per frame (see [`ContactPass::with_passes`]).
 pub const DEFAULT_PASSES: usize = 2;
-
-/// Contact parameters of one object (2021 Sec. 4.3, 4.4, 5, 7).
-#[derive(Clone, Debug, PartialEq)]
-pub struct ObjectParams {
-    /// Pseudo-stiffness `k` (`k̄_A = k_A / (k_A + k_B)`); `f64::INFINITY` makes the object rigid.
-    pub stiffness: f64,
-    /// `τ` (Eq. 4) used when this object is the softer one of a pair.
-    pub tau: f64,
-    /// `φ̄`, extent of the deformation (scene units); `None`: [`DEFAULT_EXTENT_FACTOR`] times
-    /// the object's rest size ([`crate::mesh::surface_size`]).
-    pub extent: Option<f64>,
-    /// `γ`: 0 no bulge, 1 exact volume, > 1 exaggeration.
-    pub gamma: f64,
-    /// `ω` of the procedural bulge map.
-    pub omega: f64,
-    /// Painted bulge map per welded vertex (multiplies `η`; negative values allowed).
-    pub painted: Option<Vec<f64>>,
-    /// Whether the object takes part in contacts between bodies (`[[object]] contact =
-    /// false`: an outline shell, a garment layered on the skin, a duplicate, which the pass
-    /// would take for one deep interpenetration and crumple).
-    pub contact: bool,
-}
-
-impl Default for ObjectParams {
-    fn default() -> Self {
-        Self {
-            stiffness: 1.0,
-            tau: 0.0,
-            extent: None,
-            gamma: 1.0,
-            omega: 2.0,
-            painted: None,
-            contact: true,
-        }
-    }
-}
-
-/// Per-pair overrides ([`PairOverride::new`]: none).
-#[derive(Clone, Debug, PartialEq)]
-pub struct PairOverride {
-    /// The two bodies (indices).
-    pub bodies: [usize; 2],
-    /// `τ` of this pair.
-    pub tau: Option<f64>,
-    /// The safeguard angle of this pair in degrees ([`PairParams::safeguard_angle`]).
-    pub safeguard_angle: Option<f64>,
-    /// Mapping direction, outward for `bodies[0]` (constant or keyframed).
-    pub direction: Option<DirectionTrack>,
-    /// Whether the pair is resolved: `Some(false)` (`[[pair]] enabled = false`) leaves the
-    /// two bodies as they come where they meet; `Some(true)` resolves the pair even when the
-    /// two surfaces cross at rest and the pass leaves such pairs out
-    /// ([`RestOverlaps::LeftOut`]); `None`, the default, follows the pass.
-    pub enabled: Option<bool>,
-}
-
-/// What [`ContactPass`] does with the pairs of bodies whose surfaces already cross at rest
-/// ([`ContactPass::crossing_at_rest`]; [`ContactPass::with_rest_overlaps`]).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum RestOverlaps {
-    /// Resolves them like any other (the library's default: a caller may build the pass on
-    /// any positions, such as a frame's, where every contact crosses).
-    #[default]
-    Resolved,
-    /// Leaves them out unless an override enables the pair: on a rig's true rest pose (what
-    /// `contact-skin pose` does), such an overlap is modeled on purpose, as a robot's rigid
-    /// pieces at their hinges or a head sunk into a torso, and resolving it in every frame
-    /// works against the model (until 2026-12-05 the CLI did: the Quaternius robot's 11
-    /// hinges, with zones of 1-9 vertices, faces turned over and its open pieces' volumes
-    /// changed).
-    LeftOut,
-}
-
-impl PairOverride {
-    /// No override of the pair `bodies`: the objects' parameters, the automatic direction,
-    /// resolved.
-    pub fn new(bodies: [usize; 2]) -> Self {
-        Self {
-            bodies,
-            tau: None,
-            safeguard_angle: None,
-            direction: None,
-            enabled: None,
-        }
-    }
-}
-
-/// A user mapping direction over time (2021 Sec. 4.1: "specify it manually and even key-frame
-/// it"): keys `(time, direction)`, normalized linear interpolation between them, held
-/// constant before the first and after the last.
-#[derive(Clone, Debug, PartialEq)]
-pub struct DirectionTrack {
-    keys: Vec<(f64, Vector3<f64>)>,
-}
-
-impl DirectionTrack {
-    /// A constant direction.
-    pub fn constant(direction: Vector3<f64>) -> Self {
-        Self {
-            keys: vec![(0.0, direction)],
-        }
-    }
-
-    /// Keyframes; `None` when empty, when a time or direction is not finite or a direction is
-    /// zero. Keys are sorted by time.
-    pub fn keyed(mut keys: Vec<(f64, Vector3<f64>)>) -> Option<Self> {
-        let valid = |(t, d): &(f64, Vector3<f64>)| {
-            t.is_finite() && d.iter().all(|x| x.is_finite()) && d.norm() > 0.0
-        };
-        if keys.is_empty() || !keys.iter().all(valid) {
-            return None;
-        }
-        keys.sort_by(|a, b| a.0.total_cmp(&b.0));
-        Some(Self { keys })
-    }
-
-    /// The direction at time `t` (unit unless two consecutive keys are opposite, where the
-    /// earlier key is used).
-    pub fn at(&self, t: f64) -> Vector3<f64> {
-        let k = &self.keys;
-        let first = k[0].1.normalize();
-        if k.len() == 1 || t <= k[0].0 {
-            return first;
-        }
-        for w in k.windows(2) {
-            let ((t0, d0), (t1, d1)) = (w[0], w[1]);
-            if t <= t1 {
-                let s = if t1 > t0 { (t - t0) / (t1 - t0) } else { 1.0 };
-                let (d0, d1) = (d0.normalize(), d1.normalize());
-                return (d0 * (1.0 - s) + d1 * s).try_normalize(1e-12).unwrap_or(d0);
-            }
-        }
-        k[k.len() - 1].1.normalize()
-    }
-}
 
 /// Why the pass could not run.
 #[derive(Debug, thiserror::Error)]
@@ -397,189 +258,6 @@ pub struct ContactPass {
     crossing_at_rest: Vec<[usize; 2]>,
     rest_overlaps: RestOverlaps,
 }
-
-/// Time per stage in seconds, summed over pairs and regions (the paper's Table 1 columns).
-#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
-pub struct StageTimings {
-    /// Normals and BVH refits.
-    pub setup: f64,
-    /// i.: intersection detection and regions.
-    pub intersection: f64,
-    /// m.: direction and mapping.
-    pub mapping: f64,
-    /// c.: potential surface and contact zones.
-    pub zones: f64,
-    /// p.: parametrization (heat method).
-    pub parametrization: f64,
-    /// di.: direction field.
-    pub directions: f64,
-    /// g.: amplitude and slope diffusion.
-    pub fields: f64,
-    /// de.: profiles, bulge, volume, displacement.
-    pub deformation: f64,
-    /// s.: numeric factorizations (part of p., di. and g.).
-    pub factorization: f64,
-    /// Wall-clock time of the whole pass.
-    pub wall: f64,
-}
-
-/// Per-body diagnostics of one frame.
-#[derive(Clone, Debug, Default)]
-pub struct BodyDiagnostics {
-    /// `u` per welded vertex (1 where undeformed).
-    pub u: Vec<f64>,
-    /// Contact-zone flag per welded vertex.
-    pub zone: Vec<bool>,
-    /// Displacement direction `d` per welded vertex (zero where undeformed).
-    pub direction: Vec<Vector3<f64>>,
-    /// Bulge part of the displacement at `γ = 1` per welded vertex.
-    pub bulge: Vec<Vector3<f64>>,
-    /// Amplitude field `a` per welded vertex.
-    pub amplitude: Vec<f64>,
-    /// Slope field `s` per welded vertex.
-    pub slope: Vec<f64>,
-    /// The region's statistics (when deformed).
-    pub stats: Option<crate::deform::DeformStats>,
-}
-
-impl BodyDiagnostics {
-    /// Those of a body of `n` welded vertices that the pass left as it was.
-    pub fn unchanged(n: usize) -> Self {
-        Self {
-            u: vec![1.0; n],
-            zone: vec![false; n],
-            direction: vec![Vector3::zeros(); n],
-            bulge: vec![Vector3::zeros(); n],
-            amplitude: vec![0.0; n],
-            slope: vec![0.0; n],
-            stats: None,
-        }
-    }
-}
-
-/// Summary of one contact.
-#[derive(Clone, Debug)]
-pub struct ContactSummary {
-    /// The two bodies.
-    pub bodies: [usize; 2],
-    /// The contact.
-    pub contact: Contact,
-}
-
-/// Output of one frame.
-#[derive(Clone, Debug)]
-pub struct PassOutput {
-    /// Output positions per body (welded vertices).
-    pub positions: Vec<Vec<Point3<f64>>>,
-    /// Diagnostics per body, `None` for a body the pass left as it was
-    /// ([`PassOutput::diagnostics_of`] gives its [`BodyDiagnostics::unchanged`]): not made in
-    /// every frame for `--diagnostics` alone (six arrays per body, a fifth of a single-body
-    /// frame's skinning time).
-    pub diagnostics: Vec<Option<BodyDiagnostics>>,
-    /// Contacts found.
-    pub contacts: Vec<ContactSummary>,
-    /// Stage timings.
-    pub timings: StageTimings,
-    /// Contacts resolved by passes after the first.
-    pub later_contacts: usize,
-    /// Pairs of bodies found intersecting with no direction to resolve them along (Eq. 2's
-    /// normals cancel out: two bodies crossing symmetrically) and no direction configured,
-    /// left as they were ([`PairOutcome::NoDirection`]); summed over the passes.
-    pub pairs_without_direction: usize,
-    /// Contacts and deformations that failed this frame (a factorization that found its
-    /// matrix not positive definite, entangled surfaces, …), each leaving what it would have
-    /// moved as it came in while the pass went on with the others: a pair whose contact
-    /// failed moves neither body for it, a body whose deformation failed keeps its input
-    /// positions (the other side of its contacts is still deformed onto the shared contact
-    /// surface). Until 2026-12-05 one such failure stopped the whole run; the input found to
-    /// make one fail is a broken rig (a body sheared a billion-fold by a fuzzed inverse bind
-    /// matrix). Each pair or body once per frame (its first error), however many passes met it;
-    /// a body whose deformation failed in a later pass keeps the earlier passes' output. The
-    /// contacts of a body whose deformation failed still count in [`PassOutput::contacts`]
-    /// (their other sides were deformed).
-    pub failed: Vec<FailedContact>,
-    /// Closed bodies that the frame turned inside out (their signed volume of the other sign
-    /// than at rest: a joint scaled by a negative factor in the animation), judged when one of
-    /// their pairs crosses and then left out of the contacts and as they came, each once. The passes take a body's winding for outward
-    /// (the rest pose's mirror is undone at load); on one turned inside out they resolved the
-    /// wrong way (the capsule pair with one capsule mirrored from mid-animation: 634 faces
-    /// turned over by the pass in a frame, found 2026-12-05).
-    pub inside_out: Vec<usize>,
-}
-
-/// A contact or a deformation that failed in a frame ([`PassOutput::failed`]).
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
-pub struct FailedContact {
-    /// The two bodies of a contact (in increasing order), or the one body of a deformation.
-    pub bodies: Vec<usize>,
-    /// What failed.
-    pub error: String,
-}
-
-impl FailedContact {
-    fn new(bodies: &[usize], error: &PassError) -> Self {
-        let mut bodies = bodies.to_vec();
-        bodies.sort_unstable();
-        Self {
-            bodies,
-            error: error.to_string(),
-        }
-    }
-}
-
-impl PassOutput {
-    /// Appends one body's result: its deformation, or its input unchanged (`None`: no
-    /// contact zone on it), with the diagnostics of either.
-    fn push_body(&mut self, deformed: Option<RegionDeformation>, input: &[Point3<f64>]) {
-        let Some(d) = deformed else {
-            self.positions.push(input.to_vec());
-            self.diagnostics.push(None);
-            return;
-        };
-        self.timings.parametrization += d.timings.parametrization;
-        self.timings.directions += d.timings.directions;
-        self.timings.fields += d.timings.fields;
-        self.timings.deformation += d.timings.deformation;
-        self.timings.factorization += d.timings.factorization;
-        self.positions.push(d.positions);
-        self.diagnostics.push(Some(BodyDiagnostics {
-            u: d.u,
-            zone: d.zone,
-            direction: d.direction,
-            bulge: d.bulge,
-            amplitude: d.amplitude,
-            slope: d.slope,
-            stats: Some(d.stats),
-        }));
-    }
-
-    /// The diagnostics of `body` (`None` beyond the bodies).
-    pub fn diagnostics_of(&self, body: usize) -> Option<std::borrow::Cow<'_, BodyDiagnostics>> {
-        use std::borrow::Cow;
-        match self.diagnostics.get(body)? {
-            Some(d) => Some(Cow::Borrowed(d)),
-            None => Some(Cow::Owned(BodyDiagnostics::unchanged(
-                self.positions.get(body)?.len(),
-            ))),
-        }
-    }
-}
-
-add_assign_fields!(
-    "Times of several passes or folds, summed stage by stage.",
-    StageTimings {
-        setup,
-        intersection,
-        mapping,
-        zones,
-        parametrization,
-        directions,
-        fields,
-        deformation,
-        factorization,
-        wall,
-    }
-);
 
 impl ContactPass {
     /// Precomputes the pass for bodies given by rest positions and triangles (welded).
