@@ -174,6 +174,8 @@ pub(super) fn write_obj_frames(job: &Job, times: &[f64]) -> Result<Written, BoxE
     Ok((paths, stats))
 }
 
+/// One glb, `<rig stem>.baked.glb`, that plays the frames (morph targets switched by a
+/// `weights` animation: [`glb::bake`]), staged with the diagnostics files, committed with them.
 pub(super) fn write_glb(job: &Job, times: &[f64]) -> Result<Written, BoxError> {
     let a = job.args;
     let stem = a

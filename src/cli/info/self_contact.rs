@@ -1,90 +1,19 @@
-//! `contact-skin info`: what a rig holds and what is wrong with it.
+//! The self-contact part of `contact-skin info`: the joint pairs derived (or configured), each
+//! with its regions, direction and parameters, and the ones the pass leaves out, and why.
 
-use super::CliResult;
+use super::length;
 use contact_skin::config::{self, ContactConfig};
-use contact_skin::contact::zones::DEFAULT_SAFEGUARD_ANGLE;
-use contact_skin::mesh::{TopologyReport, WeldedMesh};
-use contact_skin::pass::{rest_bodies, ContactPass, RestOverlaps, DEFAULT_EXTENT_FACTOR};
-use contact_skin::rig::{self, Rig};
+use contact_skin::mesh::WeldedMesh;
+use contact_skin::pass::RestOverlaps;
+use contact_skin::rig::Rig;
 use contact_skin::selfcontact::layers::Layer;
 use contact_skin::selfcontact::pass::SelfContactPass;
 use contact_skin::selfcontact::{
-    derive_pairs_reporting, extend_distinct, separated_from_skeleton, separated_regions,
-    PairRegions,
+    derive_pairs_reporting, extend_distinct, separated_from_skeleton, separated_regions, BoneAxes,
+    DirectionSource, PairRegions,
 };
-use contact_skin::selfcontact::{BoneAxes, DirectionSource};
 use serde::Serialize;
-use std::path::{Path, PathBuf};
-
-/// Arguments of `info`.
-#[derive(clap::Args, Debug)]
-pub struct Args {
-    /// The rig (.gltf or .glb).
-    rig: PathBuf,
-    /// Print JSON instead of text.
-    #[arg(long)]
-    json: bool,
-    /// Contact configuration (TOML) to resolve against the rig. Default:
-    /// `<rig stem>.contact.toml` next to the rig, when it exists.
-    #[arg(long, value_name = "PATH")]
-    config: Option<PathBuf>,
-}
-
-/// The resolved contact parameters of one body.
-#[derive(Serialize)]
-struct ObjectInfo {
-    body: usize,
-    name: String,
-    /// Named by an `[[object]]` table (else: the defaults).
-    configured: bool,
-    /// `null` for a rigid body.
-    stiffness: Option<f64>,
-    tau: f64,
-    /// `φ̄` in scene units (the pass default resolved when the file does not set it).
-    extent: f64,
-    gamma: f64,
-    omega: f64,
-    /// The painted map as written (`null`: none).
-    bulge_map: Option<String>,
-    /// Smallest and largest painted value (welded vertices).
-    painted_range: Option<[f64; 2]>,
-    /// Takes part in contacts between bodies (`[[object]] contact = false`: not).
-    contact: bool,
-}
-
-/// One configured pair.
-#[derive(Serialize)]
-struct PairInfo {
-    bodies: [usize; 2],
-    names: [String; 2],
-    tau: Option<f64>,
-    /// Degrees (the default, 80°, unless the pair sets it).
-    safeguard_angle: f64,
-    /// `automatic`, `constant [x, y, z]` or `N keys from t0 to t1`.
-    direction: String,
-    /// `[[pair]] enabled` as configured (`false`: not resolved; `true`: resolved even when
-    /// the bodies cross at rest; `null`: the default, resolved unless they do).
-    enabled: Option<bool>,
-}
-
-/// A pair of bodies whose surfaces cross at rest
-/// ([`contact_skin::pass::ContactPass::crossing_at_rest`]).
-#[derive(Serialize)]
-struct RestCrossingInfo {
-    bodies: [usize; 2],
-    names: [String; 2],
-    /// Resolved anyway (`[[pair]] enabled = true`); by default such a pair is left out.
-    resolved: bool,
-}
-
-/// The contact configuration of the rig, resolved.
-#[derive(Serialize)]
-struct ContactInfo {
-    file: String,
-    passes: usize,
-    objects: Vec<ObjectInfo>,
-    pairs: Vec<PairInfo>,
-}
+use std::path::Path;
 
 /// One joint pair derived from the skin weights (a possible fold), or a pair of separated
 /// regions the configuration names (`[[self_contact.separated]]`).
@@ -147,7 +76,7 @@ struct SelfPairInfo {
 
 /// The self-contact pass as it would run: its parameters, resolved, and the joint pairs.
 #[derive(Serialize)]
-struct SelfContactInfo {
+pub(super) struct SelfContactInfo {
     /// `[self_contact] enabled` (default true).
     enabled: bool,
     /// Sweeps over the folds per frame.
@@ -182,104 +111,10 @@ struct SelfContactInfo {
     skipped: Vec<String>,
 }
 
-#[derive(Serialize)]
-struct BodyInfo {
-    name: String,
-    mesh: usize,
-    skin: usize,
-    /// A mesh without a skin, posed rigidly by its node.
-    rigid: bool,
-    primitives: usize,
-    vertices: usize,
-    welded_vertices: usize,
-    seams_welded: usize,
-    triangles: usize,
-    max_influences: usize,
-    topology: TopologyReport,
-}
-
-#[derive(Serialize)]
-struct AnimationInfo {
-    index: usize,
-    name: Option<String>,
-    start: f64,
-    end: f64,
-    duration: f64,
-    channels: usize,
-}
-
-#[derive(Serialize)]
-struct RigInfo {
-    file: String,
-    nodes: usize,
-    skins: Vec<(Option<String>, usize)>,
-    joints: usize,
-    bodies: Vec<BodyInfo>,
-    animations: Vec<AnimationInfo>,
-    warnings: Vec<String>,
-    contact: Option<ContactInfo>,
-    /// The pairs of bodies crossing at rest (modeled overlaps).
-    crossing_at_rest: Vec<RestCrossingInfo>,
-    self_contact: Option<SelfContactInfo>,
-}
-
-fn describe(rig: &Rig, welded: &[WeldedMesh]) -> RigInfo {
-    let bodies = rig
-        .bodies
-        .iter()
-        .zip(welded)
-        .map(|(b, w)| BodyInfo {
-            name: b.name.clone(),
-            mesh: b.mesh,
-            skin: b.skin,
-            rigid: b.rigid,
-            primitives: b.primitives.len(),
-            vertices: b.vertex_count(),
-            welded_vertices: w.vertex_count(),
-            seams_welded: w.seams_welded(),
-            triangles: b.triangles.len(),
-            max_influences: (0..b.vertex_count())
-                .map(|v| b.weights.row(v).count())
-                .max()
-                .unwrap_or(0),
-            topology: w.report.clone(),
-        })
-        .collect();
-    let animations = rig
-        .animations
-        .iter()
-        .enumerate()
-        .map(|(index, a)| AnimationInfo {
-            index,
-            name: a.name.clone(),
-            start: a.start,
-            end: a.end,
-            duration: a.duration(),
-            channels: a.channels.len(),
-        })
-        .collect();
-    RigInfo {
-        file: rig.source.display().to_string(),
-        nodes: rig.nodes.len(),
-        skins: rig
-            .skins
-            .iter()
-            .map(|s| (s.name.clone(), s.joints.len()))
-            .collect(),
-        joints: rig.skins.iter().map(|s| s.joints.len()).sum(),
-        bodies,
-        animations,
-        warnings: rig.warnings.clone(),
-        contact: None,
-        crossing_at_rest: Vec::new(),
-        self_contact: None,
-    }
-}
-
 /// The self-contact pass of the rig under its configuration (or the defaults): derived joint
 /// pairs with their reasons and the user directions that apply. A configuration error
 /// (numbers, unknown pair) is an error; pairs that cannot be derived are reported in `error`.
-fn describe_self_contact(
+pub(super) fn describe_self_contact(
     path: &Path,
     explicit: Option<&Path>,
     rig: &Rig,
@@ -498,7 +333,8 @@ fn pair_info(
     }
 }
 
-fn print_self_contact(s: &SelfContactInfo) {
+/// The self-contact pass as text: its parameters, then each joint pair.
+pub(super) fn print_self_contact(s: &SelfContactInfo) {
     println!(
         "  self-contact ({}{}): {} sweep(s) per frame{}, threshold {}, grow rings {}, stiffness {}, tau {}, safeguard {} deg, extent {}, gamma {}, omega {}, separated regions from the skeleton {}",
         if s.enabled { "on" } else { "off" },
@@ -624,257 +460,5 @@ fn left_out_line(p: &SelfPairInfo) -> Option<String> {
         (Some(why), false) => Some(format!("{why}: resolved (enabled = true)")),
         (None, true) => Some("left as it comes in every frame (enabled = false)".into()),
         (None, false) => None,
-    }
-}
-
-/// Resolves the rig's configuration, if there is one.
-fn describe_contact(
-    path: &Path,
-    explicit: Option<&Path>,
-    rig: &Rig,
-    welded: &[WeldedMesh],
-) -> Result<Option<ContactInfo>, config::ConfigError> {
-    let Some(cfg) = ContactConfig::for_rig(path, explicit)? else {
-        return Ok(None);
-    };
-    let (params, overrides, passes) = cfg.resolve(rig, welded)?;
-    let sizes = config::rest_sizes(rig);
-    let mut configured: Vec<Option<&config::ObjectSpec>> = vec![None; rig.bodies.len()];
-    for (i, o) in cfg.objects.iter().enumerate() {
-        let b = cfg.body_index(rig, &o.name, &format!("object[{i}].name"))?;
-        configured[b] = Some(o);
-    }
-    let objects = params
-        .iter()
-        .enumerate()
-        .map(|(b, p)| ObjectInfo {
-            body: b,
-            name: rig.bodies[b].name.clone(),
-            configured: configured[b].is_some(),
-            stiffness: p.stiffness.is_finite().then_some(p.stiffness),
-            tau: p.tau,
-            extent: p.extent.unwrap_or(DEFAULT_EXTENT_FACTOR * sizes[b]),
-            gamma: p.gamma,
-            omega: p.omega,
-            bulge_map: configured[b].and_then(|o| o.bulge_map.clone()),
-            painted_range: p.painted.as_ref().map(|v| {
-                let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
-                let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-                [lo, hi]
-            }),
-            contact: p.contact,
-        })
-        .collect();
-    let pairs = overrides
-        .iter()
-        .zip(&cfg.pairs)
-        .map(|(o, spec)| PairInfo {
-            bodies: o.bodies,
-            names: o.bodies.map(|b| rig.bodies[b].name.clone()),
-            tau: o.tau,
-            safeguard_angle: o.safeguard_angle.unwrap_or(DEFAULT_SAFEGUARD_ANGLE),
-            direction: describe_direction(spec),
-            enabled: o.enabled,
-        })
-        .collect();
-    Ok(Some(ContactInfo {
-        file: cfg.file.display().to_string(),
-        passes,
-        objects,
-        pairs,
-    }))
-}
-
-fn describe_direction(p: &config::PairSpec) -> String {
-    match (&p.direction, &p.direction_keys) {
-        (Some(d), _) => format!("constant {d:?}"),
-        (None, Some(keys)) => {
-            let t = keys.iter().map(|k| k[0]);
-            let lo = t.clone().fold(f64::INFINITY, f64::min);
-            let hi = t.fold(f64::NEG_INFINITY, f64::max);
-            format!("{} keys from t = {lo} to t = {hi}", keys.len())
-        }
-        (None, None) => "automatic".into(),
-    }
-}
-
-fn print_contact(c: &ContactInfo) {
-    println!(
-        "  contact configuration {} ({} passes per frame):",
-        c.file, c.passes
-    );
-    for o in &c.objects {
-        let k = o.stiffness.map_or("rigid".into(), |k| k.to_string());
-        let map = match (&o.bulge_map, o.painted_range) {
-            (Some(m), Some([lo, hi])) => format!(", bulge map {m} (values {lo} to {hi})"),
-            _ => String::new(),
-        };
-        if !o.contact {
-            println!(
-                "    object {} '{}': no contact between bodies (contact = false)",
-                o.body, o.name
-            );
-            continue;
-        }
-        println!(
-            "    object {} '{}'{}: stiffness {k}, tau {}, extent {}, gamma {}, omega {}{map}",
-            o.body,
-            o.name,
-            if o.configured { "" } else { " (defaults)" },
-            o.tau,
-            length(o.extent),
-            o.gamma,
-            o.omega
-        );
-    }
-    for p in &c.pairs {
-        if p.enabled == Some(false) {
-            println!(
-                "    pair '{}' / '{}': not resolved (enabled = false)",
-                p.names[0], p.names[1]
-            );
-            continue;
-        }
-        let tau = p.tau.map_or("from the objects".into(), |t| t.to_string());
-        println!(
-            "    pair '{}' / '{}': tau {tau}, safeguard {} deg, direction {}",
-            p.names[0], p.names[1], p.safeguard_angle, p.direction
-        );
-    }
-}
-
-/// Runs `info`.
-pub fn run(a: &Args) -> CliResult {
-    let rig = rig::load(&a.rig)?;
-    let welded: Vec<WeldedMesh> = rig
-        .bodies
-        .iter()
-        .map(|b| WeldedMesh::weld(&b.positions, &b.triangles))
-        .collect();
-    let mut info = describe(&rig, &welded);
-    info.contact = describe_contact(&a.rig, a.config.as_deref(), &rig, &welded)?;
-    info.crossing_at_rest = describe_crossing_at_rest(&a.rig, a.config.as_deref(), &rig)?;
-    info.self_contact = Some(describe_self_contact(
-        &a.rig,
-        a.config.as_deref(),
-        &rig,
-        &welded,
-    )?);
-    if a.json {
-        println!("{}", serde_json::to_string_pretty(&info)?);
-        return Ok(());
-    }
-    println!(
-        "{}: {} nodes, {} skins, {} joints",
-        info.file,
-        info.nodes,
-        info.skins.len(),
-        info.joints
-    );
-    for b in &info.bodies {
-        let skin = if b.rigid {
-            format!("no skin: rigid, skin {} its own", b.skin)
-        } else {
-            format!("skin {}", b.skin)
-        };
-        println!(
-            "  body '{}' (mesh {}, {skin}): {} primitives, {} vertices ({} welded, {} seam copies merged), {} triangles, up to {} influences",
-            b.name, b.mesh, b.primitives, b.vertices, b.welded_vertices, b.seams_welded, b.triangles, b.max_influences
-        );
-        let t = &b.topology;
-        if t.is_closed_manifold() {
-            println!("    closed oriented 2-manifold");
-        } else {
-            println!(
-                "    problems: {} boundary edges, {} non-manifold edges, {} inconsistently oriented edges, {} degenerate faces, {} duplicate faces, {} isolated vertices",
-                t.boundary_edges, t.non_manifold_edges, t.inconsistent_edges, t.degenerate_faces, t.duplicate_faces, t.isolated_vertices
-            );
-            if t.duplicate_faces > 0 {
-                println!("    (a face repeating another's vertices, as a double-sided copy does, is left out of the contact surface)");
-            }
-        }
-    }
-    for a in &info.animations {
-        println!(
-            "  animation {} '{}': {:.3} s ({} to {}), {} channels",
-            a.index,
-            a.name.as_deref().unwrap_or(""),
-            a.duration,
-            a.start,
-            a.end,
-            a.channels
-        );
-    }
-    for w in &info.warnings {
-        println!("  warning: {w}");
-    }
-    match &info.contact {
-        Some(c) => print_contact(c),
-        None => println!("  no contact configuration (the contact pass uses its defaults)"),
-    }
-    print_crossing_at_rest(&info.crossing_at_rest);
-    if let Some(s) = &info.self_contact {
-        print_self_contact(s);
-    }
-    Ok(())
-}
-
-/// The pairs of bodies crossing at rest, as `pose`'s contact pass finds them (its pass, built
-/// on the rest pose skinned with LBS, the configuration's objects left out of contacts
-/// excluded).
-fn describe_crossing_at_rest(
-    path: &Path,
-    explicit: Option<&Path>,
-    rig: &Rig,
-) -> Result<Vec<RestCrossingInfo>, Box<dyn std::error::Error + Send + Sync>> {
-    if rig.bodies.len() < 2 {
-        return Ok(Vec::new());
-    }
-    let cfg = ContactConfig::for_rig(path, explicit)?.unwrap_or_default();
-    let pre = contact_skin::frames::Precomputed::new(rig, contact_skin::skinning::Method::Lbs);
-    let (params, overrides, _) = cfg.resolve(rig, &pre.welded)?;
-    let rest = contact_skin::frames::welded_positions(rig, &pre, None, 0.0);
-    let pass = ContactPass::new(&rest_bodies(&rest, &pre.welded), params, overrides)?
-        .with_rest_overlaps(RestOverlaps::LeftOut);
-    let left_out = pass.left_out_at_rest();
-    Ok((pass.crossing_at_rest().iter())
-        .map(|&bodies| RestCrossingInfo {
-            bodies,
-            names: bodies.map(|b| rig.bodies[b].name.clone()),
-            resolved: !left_out.contains(&bodies),
-        })
-        .collect())
-}
-
-fn print_crossing_at_rest(pairs: &[RestCrossingInfo]) {
-    if pairs.is_empty() {
-        return;
-    }
-    let left_out = pairs.iter().filter(|p| !p.resolved).count();
-    println!(
-        "  {} pair(s) of bodies cross at rest (modeled overlaps), {left_out} left out of contacts ([[pair]] enabled = true resolves one):",
-        pairs.len()
-    );
-    for p in pairs {
-        println!(
-            "    '{}' / '{}'{}",
-            p.names[0],
-            p.names[1],
-            if p.resolved {
-                ": resolved (enabled = true)"
-            } else {
-                ""
-            }
-        );
-    }
-}
-
-/// A length in scene units: six decimals, or six significant digits in scientific notation
-/// below 1e-3 and from 1e9 (a rig in other units printed its joint sizes as `0.000000`).
-fn length(x: f64) -> String {
-    if x != 0.0 && (x.abs() < 1e-3 || x.abs() >= 1e9) {
-        format!("{x:.5e}")
-    } else {
-        format!("{x:.6}")
     }
 }
