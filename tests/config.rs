@@ -1,4 +1,4 @@
-//! The rig's contact configuration (`src/config.rs`): parsing, resolution against a rig,
+//! The rig's contact configuration (`src/config/`): parsing, resolution against a rig,
 //! painted bulge maps (text files and glTF vertex attributes), and a typed error naming the
 //! file and the field for every mistake.
 
