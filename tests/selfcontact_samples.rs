@@ -916,7 +916,11 @@ fn pass_pose(p: &Prepared, pose: &rig::Pose) -> Posed {
 /// of the skeleton do (the paper's Fig. 14, fingertips pressing their own palm). Measured
 /// (penetrating vertices, parent/child pairs alone -> with the skeleton's separated regions):
 /// curled 80°/100°/70° 95 -> 58 -> 7 (deepest 1.14 -> 0.09 h), 90°/100°/80° 137 -> 111 -> 11
-/// (1.49 -> 0.13 h; 2 faces turned either way), volume error below 1e-15.
+/// (1.49 -> 0.13 h; 2 faces turned either way), volume error below 1e-15. Since a fold whose
+/// guards did not settle goes back to a blend that turns no face over, or is refused
+/// (2026-12-06): 90°/100°/80° 137 -> 114 -> 12, no face turned either way, volume error
+/// 1.0e-6, the sum of the inexact volume roots the later folds accept (each within the pass's
+/// `UNBALANCED_VOLUME`); the bound is the issue's.
 #[test]
 fn a_fist_presses_the_fingertips_into_the_palm() {
     let rel = "WebXRGenericHand/left.glb";
@@ -943,7 +947,7 @@ fn a_fist_presses_the_fingertips_into_the_palm() {
             a.turned,
             b.turned
         );
-        assert!(b.volume < 1e-9, "volume error {:.1e}", b.volume);
+        assert!(b.volume < 1e-4, "volume error {:.1e}", b.volume);
         assert_eq!(b.non_finite, 0);
     }
 }
@@ -1151,7 +1155,12 @@ fn random_pose(rig: &rig::Rig, r: &mut rng::Rng, max_angle: f64) -> rig::Pose {
 /// 23 -> 7 / 29 -> 4 / 29 -> 8 (over the four, 3046 -> 471), the robot 1581 -> 1570 / 1578 ->
 /// 1567 / 1581 -> 1573; what is left at most 1.0 h deep (1.5 h on the hand with DQS and
 /// CoR); volume errors at most 6e-7; faces turned against both the input and the skinning 0-7
-/// per character and input, 14 and 27 on the hand with DQS and CoR (not traced). Up to 160°
+/// per character and input, 14 and 27 on the hand with DQS and CoR. Those came from folds
+/// whose guards and volume solves had not settled within their cap (the last solve raising the
+/// bulge on the vertices left, unchecked); such a fold now goes back to its last blend that
+/// turns no face over, or is refused (2026-12-06): no face turned on any character with any
+/// input, asserted; penetrating vertices over the four 3046 -> 400 (CesiumMan 30 / 27 / 54,
+/// Fox 22 / 37 / 30, the hand 39 / 78 / 68, RiggedFigure 7 / 4 / 4). Up to 160°
 /// (12 poses each, another seed) the same holds: no error, no NaN, volume error at most
 /// 1.2e-6. The samples without a fold (RiggedSimple, SimpleSkin) run through as well.
 #[test]
@@ -1175,6 +1184,7 @@ fn random_poses_of_every_sample_stay_finite_and_keep_the_volume() {
                 s.folds, s.before, s.after, s.deepest, s.turned, s.volume
             );
             assert_eq!(s.non_finite, 0, "{rel} ({method:?}): NaN");
+            assert_eq!(s.turned, 0, "{rel} ({method:?}): faces turned over");
             assert!(
                 s.volume < 1e-4,
                 "{rel} ({method:?}): volume {:.1e}",

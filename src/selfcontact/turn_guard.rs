@@ -109,6 +109,24 @@ pub fn displacement_scales(g: &GuardInput, output: &[Point3<f64>]) -> Option<Vec
     any.then_some(scale)
 }
 
+/// Whether `output` turns over a face of `g.faces` that `g.input` did not have turned: its
+/// normal more than 90° away from both references, the criterion of
+/// [`crate::report::metrics::turned_faces`] (not the guard's 85°). What a fold checks its
+/// output against when its guard and volume solves did not settle
+/// ([`crate::selfcontact::fold::FoldOutput::unbalanced`]).
+pub fn turns_over(g: &GuardInput, output: &[Point3<f64>]) -> bool {
+    g.faces.iter().any(|&f| {
+        let t = g.triangles[f as usize];
+        let first = area_vector(t.map(|v| g.reference.positions[v as usize]));
+        let reference: Vector3<f64> = t.iter().map(|&v| (g.reference.normal)(v as usize)).sum();
+        let over = |p: &[Point3<f64>]| {
+            let n = area_vector(t.map(|v| p[v as usize]));
+            n.dot(&first) < 0.0 && n.dot(&reference) < 0.0
+        };
+        over(output) && !over(g.input)
+    })
+}
+
 /// One face of the guard: its corners moving along their (scaled) displacements.
 struct GuardedFace {
     start: [Point3<f64>; 3],
@@ -206,6 +224,34 @@ mod tests {
             },
         };
         displacement_scales(&g, output)
+    }
+
+    /// `turns_over`: a face pushed past its edge turns over (against both references), one
+    /// tilted short of edge-on does not (the guard's 85° is not the criterion), and a face
+    /// already turned in the fold's input is not counted again.
+    #[test]
+    fn turns_over_counts_the_faces_a_fold_turns_past_90_degrees() {
+        let (tris, x) = hinge();
+        let over = |input: &[Point3<f64>], output: &[Point3<f64>]| {
+            let g = GuardInput {
+                triangles: &tris,
+                faces: &[0, 1],
+                input,
+                reference: TurnReference {
+                    positions: &x,
+                    normal: &|_| Vector3::z(),
+                },
+            };
+            turns_over(&g, output)
+        };
+        let mut past = x.clone();
+        past[3].x = 0.5; // past the edge at x = 1: the second face faces -Z
+        let mut steep = x.clone();
+        steep[3] = Point3::new(1.01, 0.0, 1.0); // 89.4° from +Z, not past it
+        assert!(!over(&x, &x));
+        assert!(over(&x, &past));
+        assert!(!over(&x, &steep));
+        assert!(!over(&past, &past), "turned in the input already");
     }
 
     #[test]

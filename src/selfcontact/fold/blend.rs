@@ -2,6 +2,7 @@
 //! solve over the blended pair and the turn and bulge guards' scales.
 
 use super::*;
+use crate::selfcontact::turn_guard::turns_over;
 
 /// The blended pair and its one volume solve.
 pub(super) struct Blended {
@@ -42,6 +43,11 @@ pub(super) fn blend_and_balance(
             reference,
         });
     // Check, scale, solve the volume again, until the checks find nothing (or the cap).
+    let mut settled = false;
+    // The last blend whose volume solve found an exact root and that turned no face over
+    // (past 90°, the metric's criterion), with the vertices scaled back until then, for a loop
+    // cut at the cap.
+    let mut untouched = None;
     for _ in 0..GUARD_SOLVES {
         let turn = turn_guard
             .as_ref()
@@ -60,7 +66,19 @@ pub(super) fn blend_and_balance(
             None
         };
         if turn.is_none() && lower.is_none() {
+            settled = true;
             break;
+        }
+        let exact = root.is_none_or(|k| k == RootKind::Exact);
+        if exact && turn_guard.as_ref().is_some_and(|g| !turns_over(g, &out)) {
+            untouched = Some((
+                base.clone(),
+                bulge.clone(),
+                h,
+                root,
+                scaled.clone(),
+                lowered.clone(),
+            ));
         }
         for (v, &s) in turn.iter().flatten().enumerate().filter(|(_, &s)| s < 1.0) {
             base[v] = positions[v] + (base[v] - positions[v]) * s;
@@ -74,6 +92,18 @@ pub(super) fn blend_and_balance(
         (h, root) = balance(pre, g, &base, &bulge)?;
         out = displaced(&base, &bulge, gamma * h);
     }
+    // The cap cut the loop and its last volume solve turned a face over: back to the last
+    // blend that turned none, else the fold is refused (see `GUARD_SOLVES`).
+    let mut turned_over = false;
+    if !settled && turn_guard.as_ref().is_some_and(|g| turns_over(g, &out)) {
+        match untouched {
+            Some(last) => {
+                (base, bulge, h, root, scaled, lowered) = last;
+                out = displaced(&base, &bulge, gamma * h);
+            }
+            None => turned_over = true,
+        }
+    }
     let guarded = scaled.iter().filter(|&&s| s).count();
     let bulge_guarded = lowered.iter().filter(|&&s| s).count();
     let no_root = gamma != 0.0
@@ -84,7 +114,7 @@ pub(super) fn blend_and_balance(
         ) > UNBALANCED_VOLUME;
     let highest = highest_bulges(pre, &bulge);
     let steepness = steepness(regions, highest, gamma * h);
-    let unbalanced = no_root || steepness > STEEPEST_BULGE;
+    let unbalanced = no_root || steepness > STEEPEST_BULGE || turned_over;
     if unbalanced {
         out.copy_from_slice(positions);
     }
@@ -135,6 +165,15 @@ fn lowered_bulge(
 /// volume with the extent floor `κ = 3`. The bulge guard's scalings converge the same way (the
 /// raised bulge meets the other part again, a little further): 8 solves instead of 4 changed
 /// CesiumMan's and Fox's residuals by 0-2 vertices.
+///
+/// The guards and the solve need not settle within the cap: each scaling takes bulge off
+/// some vertices, the solve raises `h_v` on the others (2 to 40 times over the four solves
+/// on the WebXR hand's random poses, separated regions of whole fingers mostly), and the last
+/// solve, unchecked, turned faces over past 90°: every face the random-pose test counted
+/// there (14 with DQS, 27 with CoR) came from such a fold, none from a fold whose checks
+/// settled. A fold cut at the cap whose output turns a face over (the metric's criterion,
+/// [`crate::selfcontact::turn_guard::turns_over`]) goes back to its last blend that turned
+/// none with an exact root, or is refused ([`FoldOutput::unbalanced`]) when it has none.
 const GUARD_SOLVES: usize = 4;
 
 /// Per region, the highest blended bulge (per unit `h_v`) over its vertices, as the guards

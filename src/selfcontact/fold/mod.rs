@@ -153,7 +153,9 @@ pub struct FoldOutput {
     /// changed the volume by more than [`UNBALANCED_VOLUME`], or the root gives a bulge
     /// higher than [`STEEPEST_BULGE`] × the band it rises from. `positions` is then the input:
     /// the fold is left unresolved rather than resolved with a volume error (measured on
-    /// CesiumMan: 7e-3) or a spike.
+    /// CesiumMan: 7e-3) or a spike. Also a fold whose guards and volume solves did not
+    /// settle within their cap and whose every exactly balanced blend turns a face over
+    /// (`blend::GUARD_SOLVES`).
     pub unbalanced: bool,
     /// Vertices whose displacement the turn guard scaled back ([`FoldParams::turn_guard`]).
     pub guarded: usize,
