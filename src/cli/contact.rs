@@ -275,7 +275,8 @@ pub struct FrameDiagnostics {
     /// no common relative motion where the parts meet, or separated regions crossing
     /// symmetrically).
     pub folds_without_direction: usize,
-    /// Folds left unresolved because no bulge could keep the volume without a spike.
+    /// Folds left unresolved because no bulge could keep the volume without a spike or a face
+    /// turned over.
     pub folds_unbalanced: usize,
     /// Folds that failed and were left as they were, with what failed.
     pub folds_failed: Vec<contact_skin::selfcontact::pass::FailedFold>,
@@ -312,8 +313,8 @@ pub struct FoldDiagnostics {
     /// The largest bulge displacement over its band's width (`FoldOutput::bulge_steepness`;
     /// `null` for a bulge on a zero-width band).
     pub bulge_steepness: f64,
-    /// Left unresolved: no bulge could keep the volume without a spike (the output is the
-    /// fold's input).
+    /// Left unresolved: no bulge could keep the volume without a spike or a face turned over
+    /// (the output is the fold's input).
     pub unbalanced: bool,
     /// Vertices whose displacement the turn guard scaled back (`FoldOutput::guarded`).
     pub guarded: usize,

@@ -188,8 +188,8 @@ struct Summary {
     /// motion where the parts meet, or separated regions whose normals cancel out in Eq. 2),
     /// summed over the frames.
     folds_without_direction: usize,
-    /// Folds left unresolved because no bulge could keep the volume without a spike, summed
-    /// over the frames.
+    /// Folds left unresolved because no bulge could keep the volume without a spike or a face
+    /// turned over, summed over the frames.
     folds_unbalanced: usize,
     /// Folds that failed (a factorization, the intersection, …) and were left as they were
     /// while the pass went on, summed over the frames (a warning naming the first).

@@ -204,7 +204,7 @@ fn print_self_contact(s: &Summary) {
         }
         if s.folds_unbalanced > 0 {
             println!(
-                "self-contact: {} fold(s) left unresolved: no bulge could keep the volume without a spike",
+                "self-contact: {} fold(s) left unresolved: no bulge could keep the volume without a spike or a face turned over",
                 s.folds_unbalanced
             );
         }

@@ -81,8 +81,8 @@ pub struct SelfPassOutput {
     /// [`crate::selfcontact::fold::FoldOutcome::NoDirection`]; until 2026-12-05 the last were
     /// not counted).
     pub no_direction: usize,
-    /// Folds left unresolved because no bulge could keep the volume without a spike
-    /// ([`crate::selfcontact::fold::FoldOutput::unbalanced`]).
+    /// Folds left unresolved because no bulge could keep the volume without a spike or a face
+    /// turned over ([`crate::selfcontact::fold::FoldOutput::unbalanced`]).
     pub unbalanced: usize,
     /// Vertices whose displacement the turn guard scaled back, summed over the folds
     /// ([`crate::selfcontact::fold::FoldOutput::guarded`]).
