@@ -113,17 +113,20 @@ pub fn displacement_scales(g: &GuardInput, output: &[Point3<f64>]) -> Option<Vec
 /// normal more than 90° away from both references, the criterion of
 /// [`crate::report::metrics::turned_faces`] (not the guard's 85°). What a fold checks its
 /// output against when its guard and volume solves did not settle
-/// ([`crate::selfcontact::fold::FoldOutput::unbalanced`]).
+/// ([`crate::selfcontact::fold::FoldOutput::unbalanced`]). As in [`displacement_scales`],
+/// the skinning's normals are asked for the faces turned against the first reference only.
 pub fn turns_over(g: &GuardInput, output: &[Point3<f64>]) -> bool {
     g.faces.iter().any(|&f| {
         let t = g.triangles[f as usize];
         let first = area_vector(t.map(|v| g.reference.positions[v as usize]));
+        let normal = |p: &[Point3<f64>]| area_vector(t.map(|v| p[v as usize]));
+        let (after, before) = (normal(output), normal(g.input));
+        if after.dot(&first) >= 0.0 {
+            return false;
+        }
         let reference: Vector3<f64> = t.iter().map(|&v| (g.reference.normal)(v as usize)).sum();
-        let over = |p: &[Point3<f64>]| {
-            let n = area_vector(t.map(|v| p[v as usize]));
-            n.dot(&first) < 0.0 && n.dot(&reference) < 0.0
-        };
-        over(output) && !over(g.input)
+        let over = |n: &Vector3<f64>| n.dot(&first) < 0.0 && n.dot(&reference) < 0.0;
+        over(&after) && !over(&before)
     })
 }
 
