@@ -12,8 +12,8 @@ use contact_skin::pass::{
 };
 pub use contact_skin::report::timings::{median, median_folds, median_stages, FoldMs};
 use contact_skin::rig::Rig;
-use contact_skin::selfcontact::fold::FoldTimings;
-use contact_skin::selfcontact::pass::{SelfContactPass, SelfPassOutput};
+use contact_skin::selfcontact::fold::{FoldTimings, Unbalanced};
+use contact_skin::selfcontact::pass::{SelfContactPass, SelfPassOutput, UnbalancedCounts};
 use contact_skin::selfcontact::{extend_distinct, separated_from_skeleton, separated_regions};
 use nalgebra::Point3;
 use serde::Serialize;
@@ -278,6 +278,8 @@ pub struct FrameDiagnostics {
     /// Folds left unresolved because no bulge could keep the volume without a spike or a face
     /// turned over.
     pub folds_unbalanced: usize,
+    /// The same by reason.
+    pub folds_unbalanced_by_reason: UnbalancedCounts,
     /// Folds that failed and were left as they were, with what failed.
     pub folds_failed: Vec<contact_skin::selfcontact::pass::FailedFold>,
     /// Wall time of the self-contact pass (s; 0 when it is off).
@@ -316,6 +318,8 @@ pub struct FoldDiagnostics {
     /// Left unresolved: no bulge could keep the volume without a spike or a face turned over
     /// (the output is the fold's input).
     pub unbalanced: bool,
+    /// Why (`null` when resolved): `"no_volume_root"`, `"steep_bulge"` or `"turned_face"`.
+    pub unbalanced_reason: Option<Unbalanced>,
     /// Vertices whose displacement the turn guard scaled back (`FoldOutput::guarded`).
     pub guarded: usize,
     /// Vertices whose bulge the bulge guard scaled back (`FoldOutput::bulge_guarded`).
@@ -390,7 +394,8 @@ pub fn diagnostics(rig: &Rig, pre: &Precomputed, c: &ContactFrame) -> FrameDiagn
         timings_s: c.output.timings,
         folds: so.map_or(Vec::new(), fold_diagnostics),
         folds_without_direction: so.map_or(0, |s| s.no_direction),
-        folds_unbalanced: so.map_or(0, |s| s.unbalanced),
+        folds_unbalanced: so.map_or(0, |s| s.unbalanced.total()),
+        folds_unbalanced_by_reason: so.map_or(UnbalancedCounts::default(), |s| s.unbalanced),
         folds_failed: so.map_or(Vec::new(), |s| s.failed.clone()),
         self_contact_s: c.self_wall,
     }
@@ -467,7 +472,8 @@ fn fold_diagnostics(s: &SelfPassOutput) -> Vec<FoldDiagnostics> {
                 crease_pairs: o.crossing,
                 bulge_height: o.bulge_height,
                 bulge_steepness: o.bulge_steepness,
-                unbalanced: o.unbalanced,
+                unbalanced: o.unbalanced.is_some(),
+                unbalanced_reason: o.unbalanced,
                 guarded: o.guarded,
                 bulge_guarded: o.bulge_guarded,
                 timings_s: o.timings,

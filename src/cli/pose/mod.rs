@@ -11,7 +11,7 @@ use contact_skin::output::{self, glb, obj, Staged};
 use contact_skin::pass::{FailedContact, StageTimings};
 use contact_skin::rig::{self, Rig};
 use contact_skin::selfcontact::fold::FoldTimings;
-use contact_skin::selfcontact::pass::{FailedFold, FoldLayers};
+use contact_skin::selfcontact::pass::{FailedFold, FoldLayers, UnbalancedCounts};
 use contact_skin::skinning::Method;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
@@ -191,6 +191,10 @@ struct Summary {
     /// Folds left unresolved because no bulge could keep the volume without a spike or a face
     /// turned over, summed over the frames.
     folds_unbalanced: usize,
+    /// The same by reason: no exact root of the volume cubic (no band for a bulge, or inward
+    /// displacement directions), a bulge steeper than its band allows, every balanced blend
+    /// turning a face over.
+    folds_unbalanced_by_reason: UnbalancedCounts,
     /// Folds that failed (a factorization, the intersection, …) and were left as they were
     /// while the pass went on, summed over the frames (a warning naming the first).
     folds_failed: usize,
@@ -300,7 +304,7 @@ struct FrameStats {
     /// Summed fold timings and the self-contact pass's wall time (s), when it ran.
     fold_timings: Option<(FoldTimings, f64)>,
     folds_without_direction: usize,
-    folds_unbalanced: usize,
+    folds_unbalanced: UnbalancedCounts,
     folds_failed: Vec<FailedFold>,
     vertices_guarded: usize,
     bulges_guarded: usize,
@@ -514,7 +518,11 @@ fn summarize(
         fold_frames: stats.iter().filter(|s| !s.folds.is_empty()).count(),
         folds,
         folds_without_direction: stats.iter().map(|s| s.folds_without_direction).sum(),
-        folds_unbalanced: stats.iter().map(|s| s.folds_unbalanced).sum(),
+        folds_unbalanced: stats.iter().map(|s| s.folds_unbalanced.total()).sum(),
+        folds_unbalanced_by_reason: stats.iter().fold(UnbalancedCounts::default(), |mut a, s| {
+            a += s.folds_unbalanced;
+            a
+        }),
         folds_failed: stats.iter().map(|s| s.folds_failed.len()).sum(),
         first_fold_failure: first_failure(stats, |s| {
             let f = s.folds_failed.first()?;
@@ -624,7 +632,7 @@ fn compute_unchecked(
             folds: Vec::new(),
             fold_timings: None,
             folds_without_direction: 0,
-            folds_unbalanced: 0,
+            folds_unbalanced: UnbalancedCounts::default(),
             folds_failed: Vec::new(),
             vertices_guarded: 0,
             bulges_guarded: 0,
@@ -656,7 +664,7 @@ fn compute_unchecked(
         }),
         fold_timings: so.map(|s| (s.timings, cf.self_wall)),
         folds_without_direction: so.map_or(0, |s| s.no_direction),
-        folds_unbalanced: so.map_or(0, |s| s.unbalanced),
+        folds_unbalanced: so.map_or(UnbalancedCounts::default(), |s| s.unbalanced),
         folds_failed: so.map_or(Vec::new(), |s| s.failed.clone()),
         vertices_guarded: so.map_or(0, |s| s.guarded),
         bulges_guarded: so.map_or(0, |s| s.bulge_guarded),

@@ -203,9 +203,10 @@ fn print_self_contact(s: &Summary) {
             );
         }
         if s.folds_unbalanced > 0 {
+            let r = &s.folds_unbalanced_by_reason;
             println!(
-                "self-contact: {} fold(s) left unresolved: no bulge could keep the volume without a spike or a face turned over",
-                s.folds_unbalanced
+                "self-contact: {} fold(s) left unresolved: no bulge could keep the volume without a spike or a face turned over ({} without a root of the volume cubic, {} too steep, {} turning a face over)",
+                s.folds_unbalanced, r.no_volume_root, r.steep_bulge, r.turned_face
             );
         }
         if s.vertices_guarded > 0 {

@@ -10,7 +10,7 @@ pub(super) struct Blended {
     pub(super) h: f64,
     pub(super) root: Option<RootKind>,
     pub(super) steepness: f64,
-    pub(super) unbalanced: bool,
+    pub(super) unbalanced: Option<Unbalanced>,
     pub(super) guarded: usize,
     pub(super) bulge_guarded: usize,
 }
@@ -114,8 +114,16 @@ pub(super) fn blend_and_balance(
         ) > UNBALANCED_VOLUME;
     let highest = highest_bulges(pre, &bulge);
     let steepness = steepness(regions, highest, gamma * h);
-    let unbalanced = no_root || steepness > STEEPEST_BULGE || turned_over;
-    if unbalanced {
+    let unbalanced = if no_root {
+        Some(Unbalanced::NoVolumeRoot)
+    } else if steepness > STEEPEST_BULGE {
+        Some(Unbalanced::SteepBulge)
+    } else if turned_over {
+        Some(Unbalanced::TurnedFace)
+    } else {
+        None
+    };
+    if unbalanced.is_some() {
         out.copy_from_slice(positions);
     }
     Ok(Blended {

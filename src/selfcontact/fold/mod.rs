@@ -148,15 +148,11 @@ pub struct FoldOutput {
     /// that region's effective extent `φ_max,eff` (0 without bulge; `+∞` for a bulge on a zero
     /// extent).
     pub bulge_steepness: f64,
-    /// No plausible bulge could keep the volume: either no exact root of the cubic (e.g. a
-    /// zone whose region's extent is capped to nothing by its border) while the deformation
-    /// changed the volume by more than [`UNBALANCED_VOLUME`], or the root gives a bulge
-    /// higher than [`STEEPEST_BULGE`] × the band it rises from. `positions` is then the input:
-    /// the fold is left unresolved rather than resolved with a volume error (measured on
-    /// CesiumMan: 7e-3) or a spike. Also a fold whose guards and volume solves did not
-    /// settle within their cap and whose every exactly balanced blend turns a face over
-    /// (`blend::GUARD_SOLVES`).
-    pub unbalanced: bool,
+    /// Why the fold was left unresolved, `None` when it was resolved: no plausible bulge
+    /// could keep the volume ([`Unbalanced`]). `positions` is then the input: the fold is left
+    /// unresolved rather than resolved with a volume error (measured on CesiumMan: 7e-3), a
+    /// spike or a face turned over.
+    pub unbalanced: Option<Unbalanced>,
     /// Vertices whose displacement the turn guard scaled back ([`FoldParams::turn_guard`]).
     pub guarded: usize,
     /// Vertices whose bulge the bulge guard scaled back ([`FoldParams::bulge_guard`]).
@@ -166,6 +162,22 @@ pub struct FoldOutput {
     pub region_positions: [Vec<Point3<f64>>; 2],
     /// Timings.
     pub timings: FoldTimings,
+}
+
+/// Why a fold was left unresolved ([`FoldOutput::unbalanced`]), in the order checked.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Unbalanced {
+    /// No exact root of the volume cubic while the deformation changed the volume by more
+    /// than [`UNBALANCED_VOLUME`]: no bulge band (the zone reaches its region's border, which
+    /// caps the extent to nothing; the zone is the whole region) or displacement directions
+    /// pointing inward (deep penetration).
+    NoVolumeRoot,
+    /// The root gives a bulge higher than [`STEEPEST_BULGE`] × the band it rises from.
+    SteepBulge,
+    /// The guards and volume solves did not settle within their cap and every exactly
+    /// balanced blend turns a face over (`blend::GUARD_SOLVES`).
+    TurnedFace,
 }
 
 /// What a fold detected intersecting itself amounts to in one frame.

@@ -17,7 +17,9 @@ mod output;
 mod posed;
 mod run;
 
-pub use output::{FailedFold, FoldLayers, FoldReport, LeftOutFold, RestCrossing, SelfPassOutput};
+pub use output::{
+    FailedFold, FoldLayers, FoldReport, LeftOutFold, RestCrossing, SelfPassOutput, UnbalancedCounts,
+};
 
 use build::{triangles_without, with_detection};
 

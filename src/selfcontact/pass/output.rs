@@ -2,7 +2,7 @@
 //! left out, crossing at rest, and the layers they run without.
 
 use super::Fold;
-use crate::selfcontact::fold::{FoldOutput, FoldTimings};
+use crate::selfcontact::fold::{FoldOutput, FoldTimings, Unbalanced};
 use crate::selfcontact::layers::Layer;
 use nalgebra::Vector3;
 
@@ -82,8 +82,8 @@ pub struct SelfPassOutput {
     /// not counted).
     pub no_direction: usize,
     /// Folds left unresolved because no bulge could keep the volume without a spike or a face
-    /// turned over ([`crate::selfcontact::fold::FoldOutput::unbalanced`]).
-    pub unbalanced: usize,
+    /// turned over ([`crate::selfcontact::fold::FoldOutput::unbalanced`]), by reason.
+    pub unbalanced: UnbalancedCounts,
     /// Vertices whose displacement the turn guard scaled back, summed over the folds
     /// ([`crate::selfcontact::fold::FoldOutput::guarded`]).
     pub guarded: usize,
@@ -109,6 +109,42 @@ pub struct SelfPassOutput {
     pub inside_out: Vec<usize>,
 }
 
+/// Folds left unresolved, by reason ([`crate::selfcontact::fold::Unbalanced`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct UnbalancedCounts {
+    /// No exact root of the volume cubic ([`Unbalanced::NoVolumeRoot`]).
+    pub no_volume_root: usize,
+    /// A bulge steeper than its band allows ([`Unbalanced::SteepBulge`]).
+    pub steep_bulge: usize,
+    /// Every balanced blend turns a face over ([`Unbalanced::TurnedFace`]).
+    pub turned_face: usize,
+}
+
+impl UnbalancedCounts {
+    /// All the folds left unresolved.
+    pub fn total(&self) -> usize {
+        self.no_volume_root + self.steep_bulge + self.turned_face
+    }
+
+    /// Counts one fold's outcome (nothing when it was resolved).
+    pub fn count(&mut self, reason: Option<Unbalanced>) {
+        match reason {
+            Some(Unbalanced::NoVolumeRoot) => self.no_volume_root += 1,
+            Some(Unbalanced::SteepBulge) => self.steep_bulge += 1,
+            Some(Unbalanced::TurnedFace) => self.turned_face += 1,
+            None => {}
+        }
+    }
+}
+
+impl std::ops::AddAssign for UnbalancedCounts {
+    fn add_assign(&mut self, other: Self) {
+        self.no_volume_root += other.no_volume_root;
+        self.steep_bulge += other.steep_bulge;
+        self.turned_face += other.turned_face;
+    }
+}
+
 /// A fold that failed in a frame ([`SelfPassOutput::failed`]).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct FailedFold {
@@ -122,13 +158,13 @@ impl SelfPassOutput {
     /// Adds `fold`'s output `o` (resolved along `direction`, unless its regions are separated)
     /// to the frame's report; whether it moved the body (not when it was left unbalanced).
     pub(super) fn record(&mut self, fold: &Fold, direction: Vector3<f64>, o: FoldOutput) -> bool {
-        self.unbalanced += usize::from(o.unbalanced);
-        if !o.unbalanced {
+        self.unbalanced.count(o.unbalanced);
+        if o.unbalanced.is_none() {
             self.guarded += o.guarded;
             self.bulge_guarded += o.bulge_guarded;
         }
         self.timings += o.timings;
-        let moved = !o.unbalanced;
+        let moved = o.unbalanced.is_none();
         self.folds.push(FoldReport {
             body: fold.body,
             name: fold.pre.regions.pair.name.clone(),
