@@ -1898,3 +1898,40 @@ fn pose_counts_the_unresolved_folds_by_reason() {
     }
     assert_eq!(frames, summary);
 }
+
+/// Two fingers modeled as two tubes of one mesh: each knuckle's fold runs without the other
+/// tube (a piece holding none of its shared region), but another fold runs on that tube, so
+/// `--metrics` measures the whole mesh, as it does without the self-contact pass (until
+/// 2026-12-06 it left out every piece some fold ran without: here both tubes, and it measured
+/// nothing, a mean edge length of 0 and NaN depths).
+#[test]
+fn metrics_measure_the_pieces_some_fold_runs_on() {
+    let rig = committed("two_fingers");
+    let dir = tmp("two-tubes");
+    let measure = |out: &str, pass: &str| -> Value {
+        let run = pose_frames(&rig, &dir.join(out), "6", &[pass, "--metrics", "--json"]);
+        assert!(
+            run.status.success(),
+            "{}",
+            String::from_utf8_lossy(&run.stderr)
+        );
+        let v: Value = serde_json::from_slice(&run.stdout).expect("summary");
+        v["metrics"].clone()
+    };
+    let (with, without) = (
+        measure("self", "--self-contact"),
+        measure("plain", "--no-self-contact"),
+    );
+    let h = with["h"].as_f64().expect("h");
+    assert!(h > 0.0 && h.is_finite(), "{with}");
+    assert_eq!(with["h"], without["h"]);
+    assert_eq!(with["penetrating_before"], without["penetrating_before"]);
+    assert!(
+        with["penetrating_before"]["value"].as_u64() > Some(0),
+        "{with}"
+    );
+    let depth = with["max_depth_after_h"]["value"]
+        .as_f64()
+        .expect("a depth");
+    assert!(depth.is_finite(), "{with}");
+}

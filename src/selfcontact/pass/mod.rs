@@ -311,10 +311,21 @@ impl SelfContactPass {
     /// Per body, its welded triangles without the layers its folds run without
     /// ([`SelfContactPass::layers`]: pieces sunk into it as modeled, whose overlap with the
     /// skin no fold resolves), `None` for a body without any: the surface on which what the
-    /// pass leaves is measured.
+    /// pass leaves is measured. A face some fold runs on stays, though others run without it:
+    /// two fingers modeled as two tubes of one mesh, each fold of a knuckle runs without the
+    /// other finger's tube, and both tubes are measured (until 2026-12-06 every face some fold
+    /// ran without was left out: on `two_fingers.glb` the whole mesh, and `pose --metrics`
+    /// measured nothing, its mean edge length 0 and its depths NaN).
     pub fn triangles_without_layers(&self) -> Vec<Option<Vec<[u32; 3]>>> {
         let mut left: Vec<Vec<bool>> = vec![Vec::new(); self.triangles.len()];
+        let mut run_on: Vec<Vec<bool>> = (self.triangles.iter())
+            .map(|t| vec![false; t.len()])
+            .collect();
         for fold in &self.folds {
+            let r = &fold.pre.regions;
+            for &f in r.w1_faces.iter().chain(&r.w2_faces) {
+                run_on[fold.body][f as usize] = true;
+            }
             let Some(without) = &fold.without else {
                 continue;
             };
@@ -322,6 +333,12 @@ impl SelfContactPass {
             flags.resize(self.triangles[fold.body].len(), false);
             for &f in &without.faces {
                 flags[f as usize] = true;
+            }
+        }
+        for (flags, on) in left.iter_mut().zip(&run_on) {
+            flags.iter_mut().zip(on).for_each(|(l, &on)| *l &= !on);
+            if !flags.contains(&true) {
+                flags.clear();
             }
         }
         (left.iter().zip(&self.triangles))
