@@ -1935,3 +1935,28 @@ fn metrics_measure_the_pieces_some_fold_runs_on() {
         .expect("a depth");
     assert!(depth.is_finite(), "{with}");
 }
+
+/// `--metrics` on a rig scaled to a point at rest stays finite: every edge of length 0, `h`
+/// falls back to 1 (scene units) instead of depths of 0/0; found by this session's fuzzing,
+/// where the JSON held `null`s.
+#[test]
+fn metrics_of_a_rig_scaled_to_a_point_are_finite() {
+    let dir = tmp("degenerate-metrics");
+    std::fs::create_dir_all(&dir).expect("folder");
+    let bytes = std::fs::read(committed("sphere_plane")).expect("rig reads");
+    let rig_path = dir.join("point.glb");
+    let edited = glb::with_json(&bytes, |j| {
+        j["nodes"][0]["scale"] = serde_json::json!([0.0, 0.0, 0.0])
+    });
+    std::fs::write(&rig_path, edited).expect("written");
+    let run = pose_frames(&rig_path, &dir.join("out"), "4", &["--metrics", "--json"]);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let v: Value = serde_json::from_slice(&run.stdout).expect("summary");
+    let m = &v["metrics"];
+    assert_eq!(m["h"].as_f64(), Some(1.0), "{m}");
+    assert!(!m.to_string().contains("null"), "{m}");
+}

@@ -21,7 +21,9 @@ pub fn triangles(pre: &Precomputed) -> Vec<&[[u32; 3]]> {
 }
 
 /// `h`: the rest pose's mean edge length, averaged over the bodies (the length unit of the
-/// penetration nudge and of the reported depths).
+/// penetration nudge and of the reported depths); 1 (scene units) when that is not a positive
+/// finite length (every rest edge collapsed, no triangle, non-finite rest positions): depths
+/// of 0 over an `h` of 0 read NaN otherwise.
 pub fn rest_edge_length(rig: &Rig, pre: &Precomputed) -> f64 {
     mean_rest_edge(rig, pre, &triangles(pre))
 }
@@ -34,7 +36,12 @@ fn mean_rest_edge(rig: &Rig, pre: &Precomputed, triangles: &[&[[u32; 3]]]) -> f6
         .zip(triangles)
         .map(|(p, t)| mean_edge_length(p, t))
         .sum();
-    sum / rest.len().max(1) as f64
+    let h = sum / rest.len().max(1) as f64;
+    if h > 0.0 && h.is_finite() {
+        h
+    } else {
+        1.0
+    }
 }
 
 /// Residual penetration (`MEASURING.md`) of a frame's bodies together: a vertex is flagged
@@ -115,7 +122,9 @@ pub fn closed_bodies(pre: &Precomputed) -> Vec<bool> {
 /// volumes; a body the passes left alone changes by exactly 0). An open body has no volume
 /// (`MEASURING.md` measures closed bodies; the passes keep no volume there): until 2026-12-05
 /// its divergence-theorem "volume" counted, and the Quaternius robot's open pieces reported
-/// errors of 15-19 % where its closed ones kept theirs to round-off.
+/// errors of 15-19 % where its closed ones kept theirs to round-off. Nor has a closed body
+/// whose input encloses no volume (flattened by a singular joint matrix): its relative change
+/// was infinite, written `null` in the JSON.
 pub fn volume_error(
     tris: &[&[[u32; 3]]],
     closed: &[bool],
@@ -125,8 +134,10 @@ pub fn volume_error(
     tris.iter()
         .enumerate()
         .filter(|&(b, _)| closed.get(b).copied().unwrap_or(false) && input[b] != output[b])
-        .map(|(b, t)| {
-            metrics::volume_error(signed_volume(&input[b], t), signed_volume(&output[b], t))
+        .filter_map(|(b, t)| {
+            let before = signed_volume(&input[b], t);
+            // A body the frame flattened (a singular joint matrix) has no volume to keep.
+            (before != 0.0).then(|| metrics::volume_error(before, signed_volume(&output[b], t)))
         })
         .fold(0.0, f64::max)
 }
@@ -365,5 +376,40 @@ pub fn run_metrics(h: f64, measured: Vec<Measured>) -> RunMetrics {
         non_finite: frames.iter().map(|f| f.non_finite).sum(),
         temporal,
         frames,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A closed tetrahedron flattened in its input (a singular joint matrix) has no volume to
+    /// keep: a pass moving it leaves the volume error at 0, not infinite (`null` in the JSON);
+    /// the same body with a volume is measured.
+    #[test]
+    fn a_body_without_volume_is_left_out_of_the_volume_error() {
+        let tris: [[u32; 3]; 4] = [[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]];
+        let p = |x: f64, y: f64, z: f64| Point3::new(x, y, z);
+        let flat = vec![
+            p(0.0, 0.0, 0.0),
+            p(1.0, 0.0, 0.0),
+            p(0.0, 1.0, 0.0),
+            p(0.3, 0.3, 0.0),
+        ];
+        let mut moved = flat.clone();
+        moved[3].z = 0.5;
+        let error = |input: &[Point3<f64>], output: &[Point3<f64>]| {
+            volume_error(&[&tris], &[true], &[input.to_vec()], &[output.to_vec()])
+        };
+        assert_eq!(error(&flat, &moved), 0.0);
+        let solid = vec![
+            p(0.0, 0.0, 0.0),
+            p(1.0, 0.0, 0.0),
+            p(0.0, 1.0, 0.0),
+            p(0.0, 0.0, 1.0),
+        ];
+        let mut grown = solid.clone();
+        grown[3].z = 2.0;
+        assert!((error(&solid, &grown) - 1.0).abs() < 1e-12);
     }
 }
