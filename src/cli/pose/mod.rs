@@ -519,10 +519,7 @@ fn summarize(
         folds,
         folds_without_direction: stats.iter().map(|s| s.folds_without_direction).sum(),
         folds_unbalanced: stats.iter().map(|s| s.folds_unbalanced.total()).sum(),
-        folds_unbalanced_by_reason: stats.iter().fold(UnbalancedCounts::default(), |mut a, s| {
-            a += s.folds_unbalanced;
-            a
-        }),
+        folds_unbalanced_by_reason: stats.iter().map(|s| s.folds_unbalanced).sum(),
         folds_failed: stats.iter().map(|s| s.folds_failed.len()).sum(),
         first_fold_failure: first_failure(stats, |s| {
             let f = s.folds_failed.first()?;

@@ -145,6 +145,15 @@ impl std::ops::AddAssign for UnbalancedCounts {
     }
 }
 
+impl std::iter::Sum for UnbalancedCounts {
+    fn sum<I: Iterator<Item = Self>>(counts: I) -> Self {
+        counts.fold(Self::default(), |mut all, c| {
+            all += c;
+            all
+        })
+    }
+}
+
 /// A fold that failed in a frame ([`SelfPassOutput::failed`]).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct FailedFold {
