@@ -228,6 +228,19 @@ fn joint_index_beyond_the_skin_is_an_error() {
     expect_err(&d, "uses joint 7");
 }
 
+/// glTF 2.0 never normalizes indices or joints (Meshes): read as fractions, a u16 joint index
+/// 1 became 1/65535, joint 0, and the rig silently never bent (found by fuzzing, 2026-12-06).
+/// Both are accessor errors now.
+#[test]
+fn normalized_joints_or_indices_are_an_error() {
+    for (accessor, role) in [(2, "JOINTS_0"), (4, "indices")] {
+        let mut d = fixed_doc();
+        d["accessors"][accessor]["normalized"] = json!(true);
+        let e = expect_err(&d, "is normalized where integers are required");
+        assert!(e.to_string().contains(role), "{e}");
+    }
+}
+
 #[test]
 fn unused_joint_index_beyond_the_skin_is_ignored() {
     let mut l = Layout::valid();

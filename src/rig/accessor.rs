@@ -325,13 +325,20 @@ pub fn read_indices(
     bound: u64,
 ) -> Result<(usize, Vec<u32>), RigError> {
     let values = read(src, doc, index, role, dims_allowed, false)?;
-    let accessor_type = doc.accessors().nth(index).map(|a| a.data_type());
-    if accessor_type == Some(DataType::F32) {
+    let accessor = doc.accessors().nth(index);
+    let refused = match accessor.as_ref() {
+        Some(a) if a.data_type() == DataType::F32 => Some("holds floats"),
+        // glTF 2.0 (Meshes): indices and joints are never normalized; read as
+        // fractions, every joint index of a u16 accessor below 65535 became joint 0.
+        Some(a) if a.normalized() => Some("is normalized"),
+        _ => None,
+    };
+    if let Some(what) = refused {
         return Err(RigError::Accessor {
             file: src.file.to_path_buf(),
             accessor: index,
             role: role.to_string(),
-            message: "holds floats where integers are required".into(),
+            message: format!("{what} where integers are required"),
         });
     }
     let mut out = Vec::with_capacity(values.data.len());
