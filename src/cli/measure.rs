@@ -389,27 +389,20 @@ mod tests {
     #[test]
     fn a_body_without_volume_is_left_out_of_the_volume_error() {
         let tris: [[u32; 3]; 4] = [[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]];
-        let p = |x: f64, y: f64, z: f64| Point3::new(x, y, z);
-        let flat = vec![
-            p(0.0, 0.0, 0.0),
-            p(1.0, 0.0, 0.0),
-            p(0.0, 1.0, 0.0),
-            p(0.3, 0.3, 0.0),
-        ];
-        let mut moved = flat.clone();
-        moved[3].z = 0.5;
+        // The unit corner with its apex at `(x, y, z)`.
+        let apex = |x: f64, y: f64, z: f64| {
+            vec![
+                Point3::origin(),
+                Point3::new(1.0, 0.0, 0.0),
+                Point3::new(0.0, 1.0, 0.0),
+                Point3::new(x, y, z),
+            ]
+        };
         let error = |input: &[Point3<f64>], output: &[Point3<f64>]| {
             volume_error(&[&tris], &[true], &[input.to_vec()], &[output.to_vec()])
         };
-        assert_eq!(error(&flat, &moved), 0.0);
-        let solid = vec![
-            p(0.0, 0.0, 0.0),
-            p(1.0, 0.0, 0.0),
-            p(0.0, 1.0, 0.0),
-            p(0.0, 0.0, 1.0),
-        ];
-        let mut grown = solid.clone();
-        grown[3].z = 2.0;
+        assert_eq!(error(&apex(0.3, 0.3, 0.0), &apex(0.3, 0.3, 0.5)), 0.0);
+        let (solid, grown) = (apex(0.0, 0.0, 1.0), apex(0.0, 0.0, 2.0));
         assert!((error(&solid, &grown) - 1.0).abs() < 1e-12);
     }
 }

@@ -324,9 +324,7 @@ pub fn read_indices(
     dims_allowed: &[usize],
     bound: u64,
 ) -> Result<(usize, Vec<u32>), RigError> {
-    let values = read(src, doc, index, role, dims_allowed, false)?;
-    let accessor = doc.accessors().nth(index);
-    let refused = match accessor.as_ref() {
+    let refused = match doc.accessors().nth(index) {
         Some(a) if a.data_type() == DataType::F32 => Some("holds floats"),
         // glTF 2.0 (Meshes): indices and joints are never normalized; read as
         // fractions, every joint index of a u16 accessor below 65535 became joint 0.
@@ -341,6 +339,7 @@ pub fn read_indices(
             message: format!("{what} where integers are required"),
         });
     }
+    let values = read(src, doc, index, role, dims_allowed, false)?;
     let mut out = Vec::with_capacity(values.data.len());
     for (k, &v) in values.data.iter().enumerate() {
         if v < 0.0 || v as u64 >= bound {

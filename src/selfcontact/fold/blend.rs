@@ -45,9 +45,10 @@ pub(super) fn blend_and_balance(
     // Check, scale, solve the volume again, until the checks find nothing (or the cap).
     let mut settled = false;
     // The last blend whose volume solve found an exact root and that turned no face over
-    // (past 90°, the metric's criterion), with the vertices scaled back until then, for a loop
-    // cut at the cap.
+    // (past 90°, the metric's criterion), with the counts of vertices scaled back until then,
+    // for a loop cut at the cap.
     let mut untouched = None;
+    let count = |flags: &[bool]| flags.iter().filter(|&&s| s).count();
     for _ in 0..GUARD_SOLVES {
         let turn = turn_guard
             .as_ref()
@@ -72,12 +73,11 @@ pub(super) fn blend_and_balance(
         let exact = root.is_none_or(|k| k == RootKind::Exact);
         if exact && turn_guard.as_ref().is_some_and(|g| !turns_over(g, &out)) {
             untouched = Some((
-                base.clone(),
+                out.clone(),
                 bulge.clone(),
                 h,
                 root,
-                scaled.clone(),
-                lowered.clone(),
+                [count(&scaled), count(&lowered)],
             ));
         }
         for (v, &s) in turn.iter().flatten().enumerate().filter(|(_, &s)| s < 1.0) {
@@ -95,17 +95,14 @@ pub(super) fn blend_and_balance(
     // The cap cut the loop and its last volume solve turned a face over: back to the last
     // blend that turned none, else the fold is refused (see `GUARD_SOLVES`).
     let mut turned_over = false;
+    let mut guarded = [count(&scaled), count(&lowered)];
     if !settled && turn_guard.as_ref().is_some_and(|g| turns_over(g, &out)) {
         match untouched {
-            Some(last) => {
-                (base, bulge, h, root, scaled, lowered) = last;
-                out = displaced(&base, &bulge, gamma * h);
-            }
+            Some(last) => (out, bulge, h, root, guarded) = last,
             None => turned_over = true,
         }
     }
-    let guarded = scaled.iter().filter(|&&s| s).count();
-    let bulge_guarded = lowered.iter().filter(|&&s| s).count();
+    let [guarded, bulge_guarded] = guarded;
     let no_root = gamma != 0.0
         && root.is_some_and(|k| k != RootKind::Exact)
         && crate::report::metrics::volume_error(
