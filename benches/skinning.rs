@@ -173,6 +173,7 @@ impl Character {
             normals,
             weights,
             triangles,
+            morphs: Default::default(),
         }
     }
 

@@ -7,7 +7,7 @@
 use crate::mesh::WeldedMesh;
 use crate::rig::{Pose, Rig};
 use crate::skinning::cor::{entry_budget, CorCenters};
-use crate::skinning::{self, Method, Skinned};
+use crate::skinning::{self, BindShape, Method, Skinned};
 use rayon::prelude::*;
 
 /// Per-rig data computed once, before any frame.
@@ -82,7 +82,9 @@ pub fn evaluate(
 }
 
 /// Skins every body of `rig` at `pose`, wherever the pose comes from (an animation, a hand
-/// tracker writing joint matrices, a test); `index` and `t` label the frame.
+/// tracker writing joint matrices, a test); `index` and `t` label the frame. A body with
+/// morph targets is morphed first, by the pose's weights for its node or else its defaults
+/// (glTF 2.0 §3.7.2.2: morphing, then skinning).
 pub fn evaluate_pose(rig: &Rig, pre: &Precomputed, pose: &Pose, index: usize, t: f64) -> Frame {
     let bodies = rig
         .bodies
@@ -90,7 +92,11 @@ pub fn evaluate_pose(rig: &Rig, pre: &Precomputed, pose: &Pose, index: usize, t:
         .zip(&pre.cor)
         .map(|(body, cor)| {
             let mats = pose.skin_matrices(&rig.skins[body.skin]);
-            skinning::skin(pre.method, body, &mats, cor.as_ref())
+            let morphed = body.morphed(pose.morph_weights_of(body.node));
+            let shape = morphed
+                .as_ref()
+                .map_or(BindShape::of(body), BindShape::morphed);
+            skinning::skin_shape(pre.method, body, shape, &mats, cor.as_ref())
         })
         .collect();
     Frame {

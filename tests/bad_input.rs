@@ -678,3 +678,117 @@ fn a_short_glb_length_is_a_warning() {
         short.warnings
     );
 }
+
+/// The minimal rig with one morph target on its primitive (accessor 1, the normals (0, 0, 1),
+/// read as displacements) at default weight `weight`.
+fn with_morph_target(weight: f64) -> Value {
+    let mut d = fixed_doc();
+    d["meshes"][0]["primitives"][0]["targets"] = json!([{"POSITION": 1}]);
+    d["meshes"][0]["weights"] = json!([weight]);
+    d
+}
+
+/// Morph targets read and applied (glTF 2.0 §3.7.2.2): the target's +z moves every vertex at
+/// its weight; malformed targets or weights are errors naming the element.
+#[test]
+fn morph_targets_are_applied_and_checked() {
+    use contact_skin::frames::{self, Precomputed};
+    use contact_skin::skinning::Method;
+    let rig = load_json(&with_morph_target(0.5)).expect("a valid morph target");
+    assert_eq!(rig.bodies[0].morphs.len(), 1);
+    let pre = Precomputed::new(&rig, Method::Lbs);
+    let rest = frames::evaluate(&rig, &pre, None, 0, 0.0);
+    for (p, bind) in rest.bodies[0]
+        .positions
+        .iter()
+        .zip(&rig.bodies[0].positions)
+    {
+        assert_eq!((p - bind).z, 0.5, "{p} from {bind}");
+    }
+    // As many weights as targets, finite.
+    let mut d = with_morph_target(0.5);
+    d["meshes"][0]["weights"] = json!([0.5, 1.0]);
+    expect_err(&d, "2 weights for 1 morph targets");
+    let mut d = with_morph_target(0.5);
+    d["nodes"][0]["weights"] = json!([1e39]);
+    expect_err(&d, "nodes[0].weights");
+    // As many targets on every triangle primitive.
+    let mut d = with_morph_target(0.5);
+    let mut second = d["meshes"][0]["primitives"][0].clone();
+    second["targets"] = json!([]);
+    d["meshes"][0]["primitives"] = json!([d["meshes"][0]["primitives"][0].clone(), second]);
+    expect_err(&d, "1 and 0 morph targets");
+    // One finite displacement per vertex.
+    let mut d = with_morph_target(0.5);
+    d["accessors"]
+        .as_array_mut()
+        .expect("accessors")
+        .push(acc(1, 5126, 2, "VEC3"));
+    d["meshes"][0]["primitives"][0]["targets"] = json!([{"POSITION": 8}]);
+    expect_err(&d, "2 elements for 3 vertices");
+    let l = Layout::new(
+        [[0.5, 0.5, 0., 0.], [1., 0., 0., 0.], [1., 0., 0., 0.]],
+        [[0., 0., 0.], [1., 0., 0.], [0., 1., 0.]],
+    );
+    let mut bytes = l.bytes.clone();
+    bytes[36..40].copy_from_slice(&f32::INFINITY.to_le_bytes());
+    let mut d = with_morph_target(0.5);
+    d["buffers"][0] = doc(&Layout { bytes })["buffers"][0].clone();
+    expect_err(&d, "POSITION of meshes[0].primitives[0].targets[0]");
+}
+
+/// An animation's `weights` channel: one value per target and key, else an error; on a node
+/// without morph targets it is ignored with a warning.
+#[test]
+fn morph_weight_channels_are_checked() {
+    use contact_skin::frames::{self, Precomputed};
+    use contact_skin::skinning::Method;
+    use nalgebra::Vector3;
+    let channel = json!({"sampler": 1, "target": {"node": 0, "path": "weights"}});
+    // Two keys (accessor 6, times 0 and 1) of one weight each: 0 then 1.
+    let mut d = with_morph_target(0.0);
+    d["animations"][0]["channels"]
+        .as_array_mut()
+        .expect("channels")
+        .push(channel.clone());
+    d["animations"][0]["samplers"]
+        .as_array_mut()
+        .expect("samplers")
+        .push(json!({"input": 6, "output": 6}));
+    let rig = load_json(&d).expect("a valid weights channel");
+    let pre = Precomputed::new(&rig, Method::Lbs);
+    for (t, dz) in [(0.0, 0.0), (0.25, 0.25), (1.0, 1.0)] {
+        let pose = rig.pose_at(Some(0), t);
+        assert_eq!(pose.morph_weights_of(0), Some(&[t][..]));
+        // Vertex 1 is on the root joint alone, which the animation leaves at rest.
+        let frame = frames::evaluate_pose(&rig, &pre, &pose, 0, t);
+        let moved = frame.bodies[0].positions[1] - rig.bodies[0].positions[1];
+        assert!(
+            (moved - Vector3::new(0.0, 0.0, dz)).norm() < 1e-12,
+            "t = {t}: {moved}"
+        );
+    }
+    // Two targets need two values per key.
+    let mut two = d.clone();
+    two["meshes"][0]["primitives"][0]["targets"] = json!([{"POSITION": 1}, {"POSITION": 1}]);
+    two["meshes"][0]["weights"] = json!([0.0, 0.0]);
+    expect_err(&two, "2 output values for 2 keys");
+    // No target: ignored, with a warning.
+    let mut none = d.clone();
+    none["meshes"][0]["primitives"][0]
+        .as_object_mut()
+        .expect("primitive")
+        .remove("targets");
+    none["meshes"][0]
+        .as_object_mut()
+        .expect("mesh")
+        .remove("weights");
+    let rig = load_json(&none).expect("an ignored channel");
+    assert!(
+        rig.warnings
+            .iter()
+            .any(|w| w.contains("without morph targets")),
+        "{:?}",
+        rig.warnings
+    );
+}

@@ -165,6 +165,8 @@ mod reference {
         Translation,
         Rotation,
         Scale,
+        /// Morph target weights (glTF 2.0 §3.7.2.2).
+        Weights,
     }
 
     #[derive(Clone, Copy, Debug, PartialEq)]
@@ -186,7 +188,7 @@ mod reference {
         values: Vec<Vec<f64>>,
     }
 
-    /// An animation: its node channels (morph-weight channels do not move vertices here).
+    /// An animation: its node channels (transforms and morph target weights).
     #[derive(Clone, Debug)]
     pub struct Animation {
         channels: Vec<Channel>,
@@ -203,6 +205,11 @@ mod reference {
         pub positions: Vec<[f64; 3]>,
         /// Raw `(joint, weight)` influences of every JOINTS_n / WEIGHTS_n set, zeros dropped.
         influences: Vec<Vec<(usize, f64)>>,
+        /// Morph targets: per target, the POSITION displacement of every vertex (zeros where a
+        /// primitive's target has none), primitives concatenated as `positions`.
+        targets: Vec<Vec<[f64; 3]>>,
+        /// The node's `weights`, else the mesh's, else zeros.
+        default_weights: Vec<f64>,
     }
 
     /// Everything needed to pose the file's skinned meshes.
@@ -243,7 +250,25 @@ mod reference {
         pub fn pose(&self, animation: Option<usize>, t: f64) -> Vec<Vec<Option<[f64; 3]>>> {
             let locals = self.locals_at(animation, t);
             let world = self.world(&locals);
-            self.bodies.iter().map(|b| skin(b, &world)).collect()
+            let weights = self.weights_at(animation, t);
+            self.bodies
+                .iter()
+                .map(|b| {
+                    let w = weights[b.node].as_ref().unwrap_or(&b.default_weights);
+                    skin(b, &morphed(b, w), &world)
+                })
+                .collect()
+        }
+
+        /// Morph weights per node at time `t`: the value of the node's `weights` channel
+        /// (`None` without one).
+        fn weights_at(&self, animation: Option<usize>, t: f64) -> Vec<Option<Vec<f64>>> {
+            let mut weights = vec![None; self.rest.len()];
+            let channels = animation.map_or(&[][..], |a| &self.animations[a].channels[..]);
+            for ch in channels.iter().filter(|c| c.path == Path3::Weights) {
+                weights[ch.node] = Some(ch.sample(t));
+            }
+            weights
         }
 
         /// Local transforms at time `t`: every channel overrides one property of its node's
@@ -251,7 +276,7 @@ mod reference {
         fn locals_at(&self, animation: Option<usize>, t: f64) -> Vec<Local> {
             let mut locals = self.rest.clone();
             let channels = animation.map_or(&[][..], |a| &self.animations[a].channels[..]);
-            for ch in channels {
+            for ch in channels.iter().filter(|c| c.path != Path3::Weights) {
                 let v = ch.sample(t);
                 let Local::Trs { t: tr, r, s } = &mut locals[ch.node] else {
                     panic!(
@@ -263,6 +288,7 @@ mod reference {
                     Path3::Translation => *tr = [v[0], v[1], v[2]],
                     Path3::Scale => *s = [v[0], v[1], v[2]],
                     Path3::Rotation => *r = math::normalize([v[0], v[1], v[2], v[3]]),
+                    Path3::Weights => unreachable!("filtered out"),
                 }
             }
             locals
@@ -359,16 +385,30 @@ mod reference {
         }
     }
 
+    /// The bind positions morphed (glTF 2.0 §3.7.2.2): `p + Σ_k w_k Δp_k`.
+    fn morphed(body: &Body, weights: &[f64]) -> Vec<[f64; 3]> {
+        let mut out = body.positions.clone();
+        for (target, &w) in body.targets.iter().zip(weights) {
+            for (p, d) in out.iter_mut().zip(target) {
+                for i in 0..3 {
+                    p[i] += w * d[i];
+                }
+            }
+        }
+        out
+    }
+
     /// LBS (glTF 2.0 §3.7.3): `p' = Σ_j w_j · (world(joint_j) · IBM_j) · p` with the weights
-    /// of every set renormalized to sum 1. The mesh node's own transform is not applied.
-    fn skin(body: &Body, world: &[M4]) -> Vec<Option<[f64; 3]>> {
+    /// of every set renormalized to sum 1, of the (morphed) bind `positions`. The mesh node's
+    /// own transform is not applied.
+    fn skin(body: &Body, positions: &[[f64; 3]], world: &[M4]) -> Vec<Option<[f64; 3]>> {
         let joint_mats: Vec<M4> = body
             .joints
             .iter()
             .zip(&body.ibm)
             .map(|(&node, ibm)| math::mul(&world[node], ibm))
             .collect();
-        body.positions
+        positions
             .iter()
             .zip(&body.influences)
             .map(|(&p, row)| {
@@ -475,12 +515,15 @@ mod reference {
                         .collect(),
                     None => vec![math::IDENTITY; joints.len()],
                 };
+                let weights = node.weights().or(mesh.weights()).unwrap_or(&[]);
                 let mut body = Body {
                     node: node.index(),
                     joints,
                     ibm,
                     positions: Vec::new(),
                     influences: Vec::new(),
+                    targets: Vec::new(),
+                    default_weights: weights.iter().map(|&w| f64::from(w)).collect(),
                 };
                 for prim in mesh.primitives() {
                     read_primitive(&prim, buffers, &mut body);
@@ -504,6 +547,20 @@ mod reference {
         let positions = reader.read_positions().expect("primitive without POSITION");
         body.positions.extend(positions.map(|p| p.map(f64::from)));
         body.influences.resize(body.positions.len(), Vec::new());
+        // Target k of this primitive extends the body's target k (zeros without POSITION).
+        for (k, (displaced, _, _)) in reader.read_morph_targets().enumerate() {
+            if body.targets.len() <= k {
+                body.targets.push(vec![[0.0; 3]; first]);
+            }
+            let target = &mut body.targets[k];
+            match displaced {
+                Some(it) => target.extend(it.map(|d| d.map(f64::from))),
+                None => target.resize(body.positions.len(), [0.0; 3]),
+            }
+        }
+        if body.default_weights.is_empty() {
+            body.default_weights = vec![0.0; body.targets.len()];
+        }
         // Every JOINTS_n / WEIGHTS_n set adds four influences per vertex.
         for set in 0.. {
             let (Some(joints), Some(weights)) = (reader.read_joints(set), reader.read_weights(set))
@@ -529,7 +586,16 @@ mod reference {
                     ReadOutputs::Translations(it) => (Path3::Translation, widen(it)),
                     ReadOutputs::Scales(it) => (Path3::Scale, widen(it)),
                     ReadOutputs::Rotations(r) => (Path3::Rotation, widen(r.into_f32())),
-                    ReadOutputs::MorphTargetWeights(_) => return None,
+                    ReadOutputs::MorphTargetWeights(w) => {
+                        // One value holds one weight per target of the node's mesh.
+                        let mesh = ch.target().node().mesh()?;
+                        let n = mesh.primitives().next()?.morph_targets().count();
+                        let flat: Vec<f64> = w.into_f32().map(f64::from).collect();
+                        (
+                            Path3::Weights,
+                            flat.chunks(n).map(<[f64]>::to_vec).collect(),
+                        )
+                    }
                 };
                 let interp = match ch.sampler().interpolation() {
                     gltf::animation::Interpolation::Linear => Interp::Linear,
@@ -803,6 +869,14 @@ mod fixture {
             self.accessors.len() - 1
         }
 
+        /// Appends an accessor of `count` elements of `ty` without a buffer view (all zeros
+        /// until a `sparse` property substitutes some).
+        pub fn viewless(&mut self, ctype: u32, count: usize, ty: &str) -> usize {
+            self.accessors
+                .push(json!({"componentType": ctype, "count": count, "type": ty}));
+            self.accessors.len() - 1
+        }
+
         /// Sets a property (`min`, `normalized`, `sparse`...) of accessor `index`.
         pub fn set(&mut self, index: usize, key: &str, value: Value) {
             self.accessors[index][key] = value;
@@ -874,6 +948,8 @@ mod strip {
         pub sparse_positions: bool,
         /// Each vertex's weights are multiplied by `0.55 + 0.1 · (v mod 7)` (sum ≠ 1).
         pub unnormalized: bool,
+        /// Two morph targets ([`morph_targets`]) with the mesh's default weights 0.5 and -0.25.
+        pub morphs: bool,
     }
 
     /// One key track of an animation sampler.
@@ -886,6 +962,8 @@ mod strip {
     }
 
     pub const VERTICES: usize = 14;
+    /// Vertices that the sparse morph target moves.
+    const MORPHED: [usize; 2] = [3, 8];
     /// Vertices that the sparse accessor corrects.
     const SPARSE: [usize; 3] = [1, 6, 11];
 
@@ -1064,6 +1142,38 @@ mod strip {
         ]
     }
 
+    /// Two morph targets: the first a dense accessor swelling every level sideways, the second
+    /// an accessor without a buffer view (zeros) whose sparse values lift [`MORPHED`].
+    fn morph_targets(b: &mut Builder) -> Value {
+        let swell: Vec<f32> = (0..VERTICES)
+            .flat_map(|v| {
+                let out = if v % 2 == 0 { -1.0 } else { 1.0 };
+                [0.1 * out * (v / 2) as f32, 0.0, 0.02 * v as f32]
+            })
+            .collect();
+        let dense = b.floats(&swell, "VEC3");
+        let indices: Vec<u8> = MORPHED.iter().map(|&v| v as u8).collect();
+        let lift: Vec<f32> = MORPHED
+            .iter()
+            .flat_map(|&v| [0.0, 0.3, 0.05 * v as f32])
+            .collect();
+        let (iv, vv) = (
+            b.view(&indices, None),
+            b.view(&fixture::le_bytes(&lift), None),
+        );
+        let sparse = b.viewless(fixture::FLOAT, VERTICES, "VEC3");
+        b.set(
+            sparse,
+            "sparse",
+            json!({
+                "count": MORPHED.len(),
+                "indices": {"bufferView": iv, "componentType": fixture::UNSIGNED_BYTE},
+                "values": {"bufferView": vv},
+            }),
+        );
+        json!([{"POSITION": dense}, {"POSITION": sparse}])
+    }
+
     fn animation(b: &mut Builder, tracks: &[Track]) -> Value {
         let mut samplers = Vec::new();
         let mut channels = Vec::new();
@@ -1071,7 +1181,11 @@ mod strip {
             let input = b.floats(&t.times, "SCALAR");
             b.set(input, "min", json!([t.times[0]]));
             b.set(input, "max", json!([t.times[t.times.len() - 1]]));
-            let ty = if t.path == "rotation" { "VEC4" } else { "VEC3" };
+            let ty = match t.path {
+                "rotation" => "VEC4",
+                "weights" => "SCALAR",
+                _ => "VEC3",
+            };
             let output = b.floats(&t.values, ty);
             samplers
                 .push(json!({"input": input, "output": output, "interpolation": t.interpolation}));
@@ -1124,6 +1238,10 @@ mod strip {
             }]}],
             "skins": [{"joints": [1, 2, 3], "inverseBindMatrices": ibm}],
         });
+        if enc.morphs {
+            root["meshes"][0]["primitives"][0]["targets"] = morph_targets(&mut b);
+            root["meshes"][0]["weights"] = json!([0.5, -0.25]);
+        }
         if !tracks.is_empty() {
             root["animations"] = json!([animation(&mut b, tracks)]);
         }
@@ -1441,4 +1559,107 @@ fn interleaved_vertex_buffer() {
             assert_same_poses(&bytes, &plain, &[0.0, 0.6], "interleaved");
         }
     }
+}
+
+/// The strip with [`strip::Encoding::morphs`] and the skeleton's tracks plus `extra`.
+fn morphed_strip(extra: Vec<strip::Track>, skeleton_moves: bool) -> Vec<u8> {
+    let enc = strip::Encoding {
+        morphs: true,
+        ..strip::Encoding::default()
+    };
+    let mut tracks = if skeleton_moves {
+        strip::default_tracks()
+    } else {
+        Vec::new()
+    };
+    tracks.extend(extra);
+    strip::document(enc, strip::joints(), &tracks)
+}
+
+/// Vertex 3 (bind position (0.25, 0.5, -0.05)) morphed by the weights `w` of the strip's two
+/// targets, which move it by (0.1, 0, 0.06) and (0, 0.3, 0.15), by hand.
+fn vertex_3_morphed(w: [f64; 2]) -> [f64; 3] {
+    [
+        0.25 + 0.1 * w[0],
+        0.5 + 0.3 * w[1],
+        -0.05 + 0.06 * w[0] + 0.15 * w[1],
+    ]
+}
+
+/// The crate's position of vertex 3 at time `t` of the first animation (rest pose without one).
+fn crate_vertex_3(bytes: &[u8], t: f64) -> [f64; 3] {
+    let rig = rig::load_from_bytes(Path::new("morphs.gltf"), bytes).expect("the crate loads it");
+    let pre = Precomputed::new(&rig, Method::Lbs);
+    let animation = (!rig.animations.is_empty()).then_some(0);
+    let p = frames::evaluate(&rig, &pre, animation, 0, t).bodies[0].positions[3];
+    [p.x, p.y, p.z]
+}
+
+/// Morph targets (glTF 2.0 §3.7.2.2), a dense one and a sparse one without a buffer view, at
+/// the mesh's default weights (0.5, -0.25): the crate agrees with the reference on every frame
+/// of the skeleton's animation, and at the rest pose (the bind pose: skinning is the identity)
+/// vertex 3 is its bind position plus the weighted displacements, by hand.
+#[test]
+fn morph_targets_at_the_default_weights() {
+    let bytes = morphed_strip(Vec::new(), true);
+    check_bytes("morphs-default-weights.gltf", &bytes);
+    let at_rest = crate_vertex_3(&morphed_strip(Vec::new(), false), 0.0);
+    let want = vertex_3_morphed([0.5, -0.25]);
+    assert!(distance(at_rest, want) < 1e-6, "{at_rest:?} vs {want:?}");
+    // The targets move the surface: the plain strip's poses differ.
+    let plain = strip::document(
+        strip::Encoding::default(),
+        strip::joints(),
+        &strip::default_tracks(),
+    );
+    let (a, b) = (reference_pose(&bytes, 0.6), reference_pose(&plain, 0.6));
+    assert!(distance(a[3], b[3]) > 0.05, "{:?} vs {:?}", a[3], b[3]);
+}
+
+/// A node's `weights` override its mesh's (glTF 2.0 §3.7.2.2).
+#[test]
+fn node_weights_override_the_mesh_weights() {
+    let bytes = morphed_strip(Vec::new(), false);
+    let mut doc: serde_json::Value = serde_json::from_slice(&bytes).expect("JSON");
+    doc["nodes"][0]["weights"] = serde_json::json!([1.0, 1.0]);
+    let bytes = serde_json::to_vec(&doc).expect("JSON");
+    check_bytes("morphs-node-weights.gltf", &bytes);
+    let got = crate_vertex_3(&bytes, 0.0);
+    let want = vertex_3_morphed([1.0, 1.0]);
+    assert!(distance(got, want) < 1e-6, "{got:?} vs {want:?}");
+}
+
+/// Animated morph weights, sampled LINEAR, STEP and CUBICSPLINE (with tangents), alongside the
+/// skeleton's tracks: the crate agrees with the reference on every frame; and without the
+/// skeleton's tracks, LINEAR weights halfway between keys (0, 0) and (1, 0.5) give vertex 3's
+/// position at (0.5, 0.25), by hand.
+#[test]
+fn morph_weight_channels() {
+    let weights = |interpolation: &'static str| {
+        let values = if interpolation == "CUBICSPLINE" {
+            // Per key: in-tangents, values, out-tangents (2 weights each).
+            vec![
+                0.0, 0.0, 0.0, 0.0, 1.0, 0.3, //
+                0.5, -0.5, 1.0, 0.5, -2.0, 0.7, //
+                0.1, 0.1, 0.2, -1.0, 0.0, 0.0,
+            ]
+        } else {
+            vec![0.0, 0.0, 1.0, 0.5, 0.2, -1.0]
+        };
+        strip::Track {
+            node: 0,
+            path: "weights",
+            interpolation,
+            times: vec![0.0, 0.4, 1.0],
+            values,
+        }
+    };
+    for interpolation in ["LINEAR", "STEP", "CUBICSPLINE"] {
+        let bytes = morphed_strip(vec![weights(interpolation)], true);
+        check_bytes(&format!("morph-weights-{interpolation}.gltf"), &bytes);
+    }
+    let bytes = morphed_strip(vec![weights("LINEAR")], false);
+    let got = crate_vertex_3(&bytes, 0.2);
+    let want = vertex_3_morphed([0.5, 0.25]);
+    assert!(distance(got, want) < 1e-6, "{got:?} vs {want:?}");
 }

@@ -54,6 +54,7 @@ fn body_from(
         normals,
         weights,
         triangles,
+        morphs: Default::default(),
     }
 }
 

@@ -1,5 +1,6 @@
 //! glTF animations and their sampling at any time: LINEAR (spherical for rotations), STEP and
-//! CUBICSPLINE interpolation, as the glTF 2.0 specification (Appendix C) defines them.
+//! CUBICSPLINE interpolation, as the glTF 2.0 specification (Appendix C) defines them, of a
+//! node's translation, rotation, scale and morph target weights.
 
 use super::skeleton::{unit_quaternion, LocalTransform};
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
@@ -13,13 +14,17 @@ pub enum Property {
     Rotation,
     /// `scale` (3 components).
     Scale,
+    /// `weights` of the node's morph targets (one component per target).
+    Weights,
 }
 
 impl Property {
-    /// Number of components of one value.
-    pub fn components(self) -> usize {
+    /// Number of components of one value; for [`Property::Weights`], the node's number of
+    /// morph targets `targets`.
+    pub fn components(self, targets: usize) -> usize {
         match self {
             Property::Rotation => 4,
+            Property::Weights => targets,
             _ => 3,
         }
     }
@@ -43,11 +48,13 @@ pub struct Channel {
     pub node: usize,
     /// Target property.
     pub property: Property,
+    /// Components of one value ([`Property::components`]).
+    pub width: usize,
     /// Interpolation.
     pub interpolation: Interpolation,
     /// Key times in seconds, strictly increasing and finite.
     pub times: Vec<f64>,
-    /// Key values, flattened: `components` per value, and for CUBICSPLINE the triples
+    /// Key values, flattened: `width` per value, and for CUBICSPLINE the triples
     /// `[in-tangent, value, out-tangent]` per key.
     pub values: Vec<f64>,
 }
@@ -57,7 +64,7 @@ pub struct Channel {
 pub struct Animation {
     /// Name from the file.
     pub name: Option<String>,
-    /// Channels (morph-weight channels are not kept).
+    /// Channels.
     pub channels: Vec<Channel>,
     /// Earliest key time over all channels.
     pub start: f64,
@@ -105,7 +112,8 @@ impl Animation {
         }
     }
 
-    /// Overrides the targeted properties of `locals` with their values at time `t`.
+    /// Overrides the targeted properties of `locals` with their values at time `t` (the
+    /// morph weights are [`Animation::morph_weights`]).
     pub fn apply(&self, t: f64, locals: &mut [LocalTransform]) {
         for ch in &self.channels {
             let Some(local) = locals.get_mut(ch.node) else {
@@ -121,40 +129,67 @@ impl Animation {
                         trs.rotation = q;
                     }
                 }
+                Property::Weights => continue,
             }
             *local = LocalTransform::Trs(trs);
         }
     }
+
+    /// The morph weights its `weights` channels give at time `t`, per node of a scene of
+    /// `nodes` nodes (`None` for a node no channel drives).
+    pub fn morph_weights(&self, t: f64, nodes: usize) -> Vec<Option<Vec<f64>>> {
+        let mut out = vec![None; nodes];
+        for ch in self.channels.iter() {
+            if let (Property::Weights, Some(slot)) = (ch.property, out.get_mut(ch.node)) {
+                let mut w = vec![0.0; ch.width];
+                ch.sample_into(t, &mut w);
+                *slot = Some(w);
+            }
+        }
+        out
+    }
 }
 
 impl Channel {
-    fn value(&self, key: usize, slot: usize) -> [f64; 4] {
-        let c = self.property.components();
+    /// Value `slot` (0, or for CUBICSPLINE 0 in-tangent, 1 value, 2 out-tangent) of key `key`.
+    fn value(&self, key: usize, slot: usize) -> &[f64] {
         let stride = if self.interpolation == Interpolation::CubicSpline {
             3
         } else {
             1
         };
-        let base = (key * stride + slot) * c;
+        let base = (key * stride + slot) * self.width;
+        &self.values[base..base + self.width]
+    }
+
+    /// The value at time `t` of a translation, rotation or scale channel (`[x, y, z, w]` for
+    /// rotations; the entries past [`Channel::width`] are 0). Before the first key and after
+    /// the last, the end values hold.
+    pub fn sample(&self, t: f64) -> [f64; 4] {
         let mut out = [0.0; 4];
-        out[..c].copy_from_slice(&self.values[base..base + c]);
+        let width = self.width.min(4);
+        self.sample_into(t, &mut out[..width]);
         out
     }
 
-    /// The value at time `t` (`[x, y, z, w]` for rotations; the 4th entry unused otherwise).
-    /// Before the first key and after the last, the end values hold.
-    pub fn sample(&self, t: f64) -> [f64; 4] {
+    /// Writes the value at time `t` into `out` (its first [`Channel::width`] entries).
+    pub fn sample_into(&self, t: f64, out: &mut [f64]) {
         let n = self.times.len();
         let value_slot = if self.interpolation == Interpolation::CubicSpline {
             1
         } else {
             0
         };
+        let copy = |out: &mut [f64], v: &[f64]| {
+            for (o, x) in out.iter_mut().zip(v) {
+                *o = *x;
+            }
+        };
         if n == 1 || t <= self.times[0] || t.is_nan() {
-            return self.value(0, value_slot);
+            return copy(out, self.value(0, value_slot));
         }
         if t >= self.times[n - 1] {
-            return self.value(n - 1, value_slot);
+            return copy(out, self.value(n - 1, value_slot));
         }
         // Largest k with times[k] <= t; k < n - 1 here.
         let k = self.times.partition_point(|&x| x <= t) - 1;
@@ -162,13 +197,20 @@ impl Channel {
         let dt = t1 - t0;
         let s = (t - t0) / dt;
         match self.interpolation {
-            Interpolation::Step => self.value(k, 0),
+            Interpolation::Step => copy(out, self.value(k, 0)),
+            Interpolation::Linear if self.property == Property::Rotation => {
+                let quaternion =
+                    |v: &[f64]| std::array::from_fn(|i| v.get(i).copied().unwrap_or(0.0));
+                let (a, b) = (
+                    quaternion(self.value(k, 0)),
+                    quaternion(self.value(k + 1, 0)),
+                );
+                copy(out, &slerp(a, b, s));
+            }
             Interpolation::Linear => {
                 let (a, b) = (self.value(k, 0), self.value(k + 1, 0));
-                if self.property == Property::Rotation {
-                    slerp(a, b, s)
-                } else {
-                    std::array::from_fn(|i| a[i] + (b[i] - a[i]) * s)
+                for (o, (a, b)) in out.iter_mut().zip(a.iter().zip(b)) {
+                    *o = a + (b - a) * s;
                 }
             }
             Interpolation::CubicSpline => {
@@ -179,9 +221,9 @@ impl Channel {
                 let h10 = s3 - 2.0 * s2 + s;
                 let h01 = -2.0 * s3 + 3.0 * s2;
                 let h11 = s3 - s2;
-                std::array::from_fn(|i| {
-                    h00 * v0[i] + h10 * dt * b0[i] + h01 * v1[i] + h11 * dt * a1[i]
-                })
+                for (i, o) in out.iter_mut().enumerate().take(self.width) {
+                    *o = h00 * v0[i] + h10 * dt * b0[i] + h01 * v1[i] + h11 * dt * a1[i];
+                }
             }
         }
     }

@@ -9,6 +9,7 @@ pub mod accessor;
 pub mod animation;
 mod error;
 mod load;
+pub mod morph;
 mod orientation;
 pub mod skeleton;
 mod weights;
@@ -17,6 +18,7 @@ pub use animation::{Animation, Channel, Interpolation, Property};
 pub use error::RigError;
 pub(crate) use load::{confined_path, read_whole, Confinement, Unreadable};
 pub use load::{load, load_from_bytes};
+pub use morph::{MorphTarget, MorphedShape, Morphs};
 pub use skeleton::{LocalTransform, Node, Pose, Trs};
 pub use weights::SkinWeights;
 
@@ -79,12 +81,22 @@ pub struct Body {
     pub triangles: Vec<[u32; 3]>,
     /// The glTF primitives the arrays are made of.
     pub primitives: Vec<PrimitiveRange>,
+    /// Morph targets (none for most rigs), applied before skinning ([`morph`]).
+    pub morphs: Morphs,
 }
 
 impl Body {
     /// Number of (file) vertices.
     pub fn vertex_count(&self) -> usize {
         self.positions.len()
+    }
+
+    /// The shape to skin with the morph `weights` (one per target; `None`: the defaults): the
+    /// morphed shape, or `None` when no target has a non-zero weight (the bind shape).
+    pub fn morphed(&self, weights: Option<&[f64]>) -> Option<MorphedShape> {
+        let weights = weights.unwrap_or(&self.morphs.default_weights);
+        self.morphs
+            .apply(weights, &self.positions, &self.normals, &self.triangles)
     }
 }
 

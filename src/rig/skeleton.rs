@@ -110,14 +110,31 @@ pub struct Node {
     pub rest: LocalTransform,
 }
 
-/// World matrices of every node for one instant.
+/// World matrices of every node for one instant, and the morph weights an animation sets.
 #[derive(Clone, Debug)]
 pub struct Pose {
     /// `world[n]`: node `n`'s local-to-world matrix.
     pub world: Vec<Matrix4<f64>>,
+    /// `morph_weights[n]`: the weights of node `n`'s morph targets where an animation drives
+    /// them (missing entries count as 0); `None`, or no entry, for the mesh's defaults
+    /// ([`crate::rig::Morphs::default_weights`]).
+    pub morph_weights: Vec<Option<Vec<f64>>>,
 }
 
 impl Pose {
+    /// The pose of the world matrices `world`, with every mesh's default morph weights.
+    pub fn new(world: Vec<Matrix4<f64>>) -> Self {
+        Self {
+            world,
+            morph_weights: Vec::new(),
+        }
+    }
+
+    /// The morph weights of node `node` where an animation drives them.
+    pub fn morph_weights_of(&self, node: usize) -> Option<&[f64]> {
+        self.morph_weights.get(node)?.as_deref()
+    }
+
     /// Skinning matrices of a skin: `world(joint_j) · IBM_j` for every joint `j`.
     pub fn skin_matrices(&self, skin: &Skin) -> Vec<Matrix4<f64>> {
         skin.joints
@@ -154,13 +171,20 @@ impl Rig {
                 None => local,
             };
         }
-        Pose { world }
+        Pose::new(world)
     }
 
-    /// The pose of animation `animation` at time `t`, or the rest pose for `None`.
+    /// The pose of animation `animation` at time `t` (its transforms and morph weights), or the
+    /// rest pose for `None`.
     pub fn pose_at(&self, animation: Option<usize>, t: f64) -> Pose {
-        match animation {
-            Some(a) => self.pose_from_locals(&self.animated_locals(a, t)),
+        match animation.and_then(|a| self.animations.get(a)) {
+            Some(anim) => {
+                let mut locals = self.rest_locals();
+                anim.apply(t, &mut locals);
+                let mut pose = self.pose_from_locals(&locals);
+                pose.morph_weights = anim.morph_weights(t, self.nodes.len());
+                pose
+            }
             None => self.pose_from_locals(&self.rest_locals()),
         }
     }

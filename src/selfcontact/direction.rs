@@ -384,9 +384,7 @@ mod tests {
     }
 
     fn pose(parent: Matrix4<f64>, child: Matrix4<f64>) -> Pose {
-        Pose {
-            world: vec![parent, child],
-        }
+        Pose::new(vec![parent, child])
     }
 
     #[test]
@@ -551,12 +549,12 @@ mod tests {
         let mut p = pair();
         p.bone_end = Some(2);
         let end_at = |degrees: f64| Matrix4::new_translation(&(Vector3::x() + planar(degrees)));
-        let bones = |degrees: f64| Pose {
-            world: vec![
+        let bones = |degrees: f64| {
+            Pose::new(vec![
                 Matrix4::identity(),
                 Matrix4::new_translation(&Vector3::x()),
                 end_at(degrees),
-            ],
+            ])
         };
         assert_eq!(RestFold::at(&bones(132.0), &p, None), None);
         let axes = BoneAxes {

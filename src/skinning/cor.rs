@@ -46,7 +46,7 @@
 //! naive double sum would take ~30k × 88k subtriangles × pairs evaluations.
 
 use super::dqs::{blended_stretch, joint_dqs, JointDq};
-use super::{cofactor, lbs, unit_or_zero, Skinned};
+use super::{cofactor, lbs, unit_or_zero, BindShape, Skinned};
 use crate::rig::{Body, SkinWeights};
 use nalgebra::{Matrix4, Point3, Quaternion, UnitQuaternion, Vector3};
 use rayon::prelude::*;
@@ -788,19 +788,31 @@ fn skin_vertex_cor(
 /// `p' = Σ_s w_s M_s p* + R (p - p*)`, the others plain LBS. A missing center (e.g. `centers`
 /// computed for another body) also falls back to LBS.
 pub fn skin(body: &Body, centers: &CorCenters, mats: &[Matrix4<f64>]) -> Skinned {
+    skin_shape(&body.weights, BindShape::of(body), centers, mats)
+}
+
+/// [`skin`] of `shape` (a body's bind shape or a morph of it, whose centers stay the bind
+/// shape's) with its `weights`.
+pub fn skin_shape(
+    weights: &SkinWeights,
+    shape: BindShape,
+    centers: &CorCenters,
+    mats: &[Matrix4<f64>],
+) -> Skinned {
     let split = joint_dqs(mats);
-    let (positions, normals) = (0..body.vertex_count())
+    let rows = weights;
+    let (positions, normals) = (0..shape.positions.len())
         .into_par_iter()
         .with_min_len(1024)
         .map(|v| {
-            let p = &body.positions[v];
-            let n = body.normals.get(v).copied().unwrap_or_else(Vector3::zeros);
+            let p = &shape.positions[v];
+            let n = shape.normals.get(v).copied().unwrap_or_else(Vector3::zeros);
             match centers.centers.get(v).copied().flatten() {
-                Some(c) if v < body.weights.len() => {
-                    let (joints, weights) = body.weights.row_slices(v);
+                Some(c) if v < rows.len() => {
+                    let (joints, weights) = rows.row_slices(v);
                     skin_vertex_cor(joints, weights, p, &n, &c, mats, &split)
                 }
-                _ if v < body.weights.len() => lbs::skin_vertex(&body.weights, v, p, &n, mats),
+                _ if v < rows.len() => lbs::skin_vertex(rows, v, p, &n, mats),
                 _ => (*p, unit_or_zero(n)),
             }
         })

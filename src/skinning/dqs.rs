@@ -6,8 +6,8 @@
 //! are blended with signs aligned to the heaviest influence and normalized:
 //! `p' = DQ(Σ w_j σ_j q̂_j) (S̄ p)`. Normals use the rotation and the cofactor of `S̄`.
 
-use super::{cofactor, unit_or_zero, Skinned};
-use crate::rig::Body;
+use super::{cofactor, unit_or_zero, BindShape, Skinned};
+use crate::rig::{Body, SkinWeights};
 use nalgebra::{Matrix3, Matrix4, Quaternion, Rotation3, UnitQuaternion};
 use rayon::prelude::*;
 
@@ -81,12 +81,19 @@ pub fn blended_stretch(joints: &[u16], weights: &[f64], split: &[JointDq]) -> Op
 
 /// Skins a whole body with dual quaternions.
 pub fn skin(body: &Body, mats: &[Matrix4<f64>]) -> Skinned {
+    skin_shape(&body.weights, BindShape::of(body), mats)
+}
+
+/// Dual quaternion skinning of `shape` (a body's bind shape or a morph of it) with its
+/// `weights`.
+pub fn skin_shape(weights: &SkinWeights, shape: BindShape, mats: &[Matrix4<f64>]) -> Skinned {
     let dqs = joint_dqs(mats);
-    let (positions, normals) = (0..body.vertex_count())
+    let rows = weights;
+    let (positions, normals) = (0..shape.positions.len())
         .into_par_iter()
         .with_min_len(1024)
         .map(|v| {
-            let (joints, weights) = body.weights.row_slices(v);
+            let (joints, weights) = rows.row_slices(v);
             let pivot = joints
                 .iter()
                 .zip(weights)
@@ -109,8 +116,8 @@ pub fn skin(body: &Body, mats: &[Matrix4<f64>]) -> Skinned {
             };
             let rot = UnitQuaternion::new_unchecked(real);
             let t = (dual * real.conjugate() * 2.0).imag();
-            let p = &body.positions[v].coords;
-            let n = &body.normals[v];
+            let p = &shape.positions[v].coords;
+            let n = &shape.normals[v];
             let (ps, ns) = match blended_stretch(joints, weights, &dqs) {
                 Some(stretch) => (stretch * p, cofactor(&stretch) * n),
                 None => (*p, *n),

@@ -1,6 +1,6 @@
 //! Linear blend skinning: `p' = (Σ_j w_j M_j) p`, normals by the cofactor of the blended matrix.
 
-use super::{cofactor, unit_or_zero, Skinned};
+use super::{cofactor, unit_or_zero, BindShape, Skinned};
 use crate::rig::{Body, SkinWeights};
 use nalgebra::{Matrix3, Matrix4, Point3, Vector3};
 use rayon::prelude::*;
@@ -30,10 +30,15 @@ pub fn skin_vertex(
 
 /// Linear blend skinning of a whole body.
 pub fn skin(body: &Body, mats: &[Matrix4<f64>]) -> Skinned {
-    let (positions, normals) = (0..body.vertex_count())
-        .into_par_iter()
+    skin_shape(&body.weights, BindShape::of(body), mats)
+}
+
+/// Linear blend skinning of `shape` (a body's bind shape or a morph of it) with its `weights`.
+pub fn skin_shape(weights: &SkinWeights, shape: BindShape, mats: &[Matrix4<f64>]) -> Skinned {
+    let (positions, normals) = (shape.positions.par_iter().zip(shape.normals))
         .with_min_len(1024)
-        .map(|v| skin_vertex(&body.weights, v, &body.positions[v], &body.normals[v], mats))
+        .enumerate()
+        .map(|(v, (p, n))| skin_vertex(weights, v, p, n, mats))
         .unzip();
     Skinned { positions, normals }
 }

@@ -14,7 +14,7 @@ pub mod cor;
 pub mod dqs;
 pub mod lbs;
 
-use crate::rig::Body;
+use crate::rig::{Body, MorphedShape};
 use nalgebra::{Matrix3, Matrix4, Point3, Vector3};
 
 /// Which skinning method to use.
@@ -48,6 +48,34 @@ pub struct Skinned {
     pub normals: Vec<Vector3<f64>>,
 }
 
+/// The shape a skinning reads, one position and normal per file vertex: a body's bind shape,
+/// or the bind shape morphed by its morph targets ([`crate::rig::morph`]).
+#[derive(Clone, Copy, Debug)]
+pub struct BindShape<'a> {
+    /// Positions (mesh space).
+    pub positions: &'a [Point3<f64>],
+    /// Normals (unit or zero).
+    pub normals: &'a [Vector3<f64>],
+}
+
+impl<'a> BindShape<'a> {
+    /// `body`'s own bind shape.
+    pub fn of(body: &'a Body) -> Self {
+        Self {
+            positions: &body.positions,
+            normals: &body.normals,
+        }
+    }
+
+    /// A morphed shape of a body.
+    pub fn morphed(shape: &'a MorphedShape) -> Self {
+        Self {
+            positions: &shape.positions,
+            normals: &shape.normals,
+        }
+    }
+}
+
 /// Skins `body` with joint matrices `mats` (`world(joint) · IBM`, one per skin joint).
 /// `centers` is required for [`Method::Cor`] (falls back to LBS for vertices without a center).
 pub fn skin(
@@ -56,11 +84,26 @@ pub fn skin(
     mats: &[Matrix4<f64>],
     centers: Option<&cor::CorCenters>,
 ) -> Skinned {
+    skin_shape(method, body, BindShape::of(body), mats, centers)
+}
+
+/// [`skin`] of `shape`, `body`'s bind shape or a morph of it (the same vertices, skinned
+/// with `body`'s weights; CoR's centers stay those of the bind shape).
+pub fn skin_shape(
+    method: Method,
+    body: &Body,
+    shape: BindShape,
+    mats: &[Matrix4<f64>],
+    centers: Option<&cor::CorCenters>,
+) -> Skinned {
     match (method, centers) {
-        (Method::Lbs, _) => lbs::skin(body, mats),
-        (Method::Dqs, _) => dqs::skin(body, mats),
-        (Method::Cor, Some(c)) => cor::skin(body, c, mats),
-        (Method::Cor, None) => cor::skin(body, &cor::CorCenters::precompute(body), mats),
+        (Method::Lbs, _) => lbs::skin_shape(&body.weights, shape, mats),
+        (Method::Dqs, _) => dqs::skin_shape(&body.weights, shape, mats),
+        (Method::Cor, Some(c)) => cor::skin_shape(&body.weights, shape, c, mats),
+        (Method::Cor, None) => {
+            let centers = cor::CorCenters::precompute(body);
+            cor::skin_shape(&body.weights, shape, &centers, mats)
+        }
     }
 }
 

@@ -42,6 +42,10 @@ struct BodyInfo {
     seams_welded: usize,
     triangles: usize,
     max_influences: usize,
+    /// Number of morph targets, applied before skinning.
+    morph_targets: usize,
+    /// Their default weights (the node's, else the mesh's, else zeros).
+    morph_default_weights: Vec<f64>,
     topology: TopologyReport,
 }
 
@@ -89,6 +93,8 @@ fn describe(rig: &Rig, welded: &[WeldedMesh]) -> RigInfo {
                 .map(|v| b.weights.row(v).count())
                 .max()
                 .unwrap_or(0),
+            morph_targets: b.morphs.len(),
+            morph_default_weights: b.morphs.default_weights.clone(),
             topology: w.report.clone(),
         })
         .collect();
@@ -161,6 +167,12 @@ pub fn run(a: &Args) -> CliResult {
             "  body '{}' (mesh {}, {skin}): {} primitives, {} vertices ({} welded, {} seam copies merged), {} triangles, up to {} influences",
             b.name, b.mesh, b.primitives, b.vertices, b.welded_vertices, b.seams_welded, b.triangles, b.max_influences
         );
+        if b.morph_targets > 0 {
+            println!(
+                "    {} morph targets (applied before skinning), default weights {:?}",
+                b.morph_targets, b.morph_default_weights
+            );
+        }
         let t = &b.topology;
         if t.is_closed_manifold() {
             println!("    closed oriented 2-manifold");

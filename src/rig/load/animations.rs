@@ -22,14 +22,17 @@ pub(super) fn read_animations(
                 gltf::animation::Property::Translation => Property::Translation,
                 gltf::animation::Property::Rotation => Property::Rotation,
                 gltf::animation::Property::Scale => Property::Scale,
-                gltf::animation::Property::MorphTargetWeights => {
-                    warnings.push(format!(
-                        "{at}: morph target weights are not posed (ignored)"
-                    ));
-                    continue;
-                }
+                gltf::animation::Property::MorphTargetWeights => Property::Weights,
             };
-            let mut channel = read_channel(src, doc, &ch, &at, property)?;
+            let targets = morph_target_count(&ch.target().node());
+            if property == Property::Weights && targets == 0 {
+                warnings.push(format!(
+                    "{at}: morph target weights of a node without morph targets (ignored)"
+                ));
+                continue;
+            }
+            let width = property.components(targets);
+            let mut channel = read_channel(src, doc, &ch, &at, (property, width))?;
             if property == Property::Rotation {
                 let rest = ch.target().node().transform().decomposed().1;
                 let zeros = replace_zero_rotations(&mut channel, rest.map(f64::from));
@@ -66,12 +69,20 @@ fn replace_zero_rotations(channel: &mut Channel, rest: [f64; 4]) -> usize {
     zeros
 }
 
+/// The number of morph targets of `node`'s mesh (its first primitive's: glTF requires as
+/// many on every primitive), 0 without a mesh.
+fn morph_target_count(node: &gltf::Node) -> usize {
+    (node.mesh().and_then(|m| m.primitives().next())).map_or(0, |p| p.morph_targets().count())
+}
+
+/// A channel driving `property`, whose values have `width` components (a weights channel's
+/// output is SCALAR, `width` values per key).
 fn read_channel(
     src: &Source,
     doc: &gltf::Document,
     ch: &gltf::animation::Channel,
     at: &str,
-    property: Property,
+    (property, width): (Property, usize),
 ) -> Result<Channel, RigError> {
     let sampler = ch.sampler();
     let interpolation = match sampler.interpolation() {
@@ -98,20 +109,26 @@ fn read_channel(
             "key times are not finite and strictly increasing",
         ));
     }
-    let comps = property.components();
+    // A weights channel's output is SCALAR: `width` elements per value.
+    let (dims, elements_per_value) = if property == Property::Weights {
+        (1, width)
+    } else {
+        (width, 1)
+    };
     let output = accessor::read(
         src,
         doc,
         sampler.output().index(),
         &format!("output of {at}"),
-        &[comps],
+        &[dims],
         false,
     )?;
-    let per_key = if interpolation == Interpolation::CubicSpline {
-        3
-    } else {
-        1
-    };
+    let per_key = elements_per_value
+        * if interpolation == Interpolation::CubicSpline {
+            3
+        } else {
+            1
+        };
     if output.count() != times.len() * per_key {
         return Err(invalid(
             src.file,
@@ -130,6 +147,7 @@ fn read_channel(
     Ok(Channel {
         node: ch.target().node().index(),
         property,
+        width,
         interpolation,
         times,
         values: output.data,

@@ -2,9 +2,10 @@
 //! triangles, custom attributes.
 
 use super::invalid;
+use super::morphs::{merge_targets, read_primitive_targets};
 use crate::rig::accessor::{self, Source};
 use crate::rig::weights::{normalize_row, SkinWeights};
-use crate::rig::{Body, PrimitiveRange, RigError, Skin};
+use crate::rig::{Body, MorphTarget, Morphs, PrimitiveRange, RigError, Skin};
 use nalgebra::{Matrix4, Point3, Vector3};
 
 /// Custom attributes of one body or primitive: `(name with its underscore, values)`.
@@ -88,9 +89,11 @@ fn read_body(
         weights: SkinWeights::with_capacity(0),
         triangles: Vec::new(),
         primitives: Vec::new(),
+        morphs: Morphs::default(),
     };
     let mut has_normals = true;
     let mut primitive_extras = Vec::new();
+    let mut targets = Vec::new();
     for prim in mesh.primitives() {
         let at = PrimitiveAt {
             mesh: mesh.index(),
@@ -100,6 +103,7 @@ fn read_body(
         let read = read_primitive(src, doc, &prim, &at, &mut body, warnings)?;
         has_normals &= read.has_normals;
         primitive_extras.extend(read.extras);
+        targets.extend(read.targets);
     }
     if body.positions.is_empty() {
         warnings.push(format!(
@@ -111,6 +115,7 @@ fn read_body(
     if !has_normals {
         body.normals = area_weighted_normals(&body.positions, &body.triangles);
     }
+    body.morphs = merge_targets(src, targets, node, mesh, !has_normals)?;
     let extras = merge_extras(primitive_extras, mesh.index(), warnings);
     Ok(Some((body, extras)))
 }
@@ -185,6 +190,8 @@ struct PrimitiveRead {
     has_normals: bool,
     /// Its custom attributes (`None` for an ignored, non-triangle primitive).
     extras: Option<Extras>,
+    /// Its morph targets (`None` for an ignored, non-triangle primitive).
+    targets: Option<Vec<MorphTarget>>,
 }
 
 /// Where a primitive is read: its mesh, the skin of the body it joins and whether that body
@@ -216,6 +223,7 @@ fn read_primitive(
         return Ok(PrimitiveRead {
             has_normals: true,
             extras: None,
+            targets: None,
         });
     }
     let pos = read_positions(src, doc, prim, &at, body.positions.len())?;
@@ -227,6 +235,7 @@ fn read_primitive(
         read_weights(src, doc, prim, &at, n, place.skin, warnings)?
     };
     let extras = read_extras(src, doc, prim, &at, n, warnings)?;
+    let targets = read_primitive_targets(src, doc, prim, &at, n, body.positions.len())?;
     let indices = match prim.indices() {
         Some(acc) => {
             accessor::read_indices(
@@ -269,6 +278,7 @@ fn read_primitive(
     Ok(PrimitiveRead {
         has_normals: normals_present(prim),
         extras: Some(extras),
+        targets: Some(targets),
     })
 }
 

@@ -8,10 +8,12 @@ use std::path::Path;
 mod animations;
 mod bodies;
 mod buffers;
+mod morphs;
 mod nodes;
 mod skins;
 
 use animations::read_animations;
+pub(super) use bodies::area_weighted_normals;
 use bodies::read_bodies;
 use buffers::resolve_buffers;
 pub(crate) use buffers::{confined_path, Confinement};

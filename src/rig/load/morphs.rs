@@ -1,0 +1,108 @@
+//! Reading a mesh's morph targets and default weights into its body's [`Morphs`]
+//! (glTF 2.0 §3.7.2.2).
+
+use super::invalid;
+use crate::rig::accessor::{self, Source};
+use crate::rig::{MorphTarget, Morphs, RigError};
+use nalgebra::Vector3;
+
+/// The morph targets of one triangle primitive of `n` vertices whose first vertex is body
+/// vertex `first`: their non-zero displacements, indexed in the body. A target's accessor must
+/// hold one finite VEC3 per vertex.
+pub(super) fn read_primitive_targets(
+    src: &Source,
+    doc: &gltf::Document,
+    prim: &gltf::Primitive,
+    at: &str,
+    n: usize,
+    first: usize,
+) -> Result<Vec<MorphTarget>, RigError> {
+    let mut targets = Vec::new();
+    for (k, target) in prim.morph_targets().enumerate() {
+        let read = |acc: Option<gltf::Accessor>, name: &str| {
+            let role = format!("{name} of {at}.targets[{k}]");
+            displacements(src, doc, acc, &role, n, first)
+        };
+        targets.push(MorphTarget {
+            positions: read(target.positions(), "POSITION")?,
+            normals: read(target.normals(), "NORMAL")?,
+        });
+    }
+    Ok(targets)
+}
+
+/// The non-zero displacements of a target attribute (none without an accessor).
+fn displacements(
+    src: &Source,
+    doc: &gltf::Document,
+    acc: Option<gltf::Accessor>,
+    role: &str,
+    n: usize,
+    first: usize,
+) -> Result<Vec<(u32, Vector3<f64>)>, RigError> {
+    let Some(acc) = acc else {
+        return Ok(Vec::new());
+    };
+    let values = accessor::read(src, doc, acc.index(), role, &[3], false)?;
+    if values.count() != n {
+        let message = format!("{} elements for {n} vertices", values.count());
+        return Err(invalid(src.file, role, message));
+    }
+    if values.data.iter().any(|x| !x.is_finite()) {
+        return Err(invalid(src.file, role, "holds a non-finite value"));
+    }
+    Ok((0..n)
+        .map(|i| (first + i, Vector3::from_column_slice(values.element(i))))
+        .filter(|(_, d)| *d != Vector3::zeros())
+        .map(|(v, d)| (v as u32, d))
+        .collect())
+}
+
+/// A body's morphs: target `k` of each of its triangle primitives (`per_primitive`, in order)
+/// concatenated, and the default weights, `node`'s `weights`, else `mesh`'s, else zeros. Every
+/// primitive must have as many targets, and the weights one per target (glTF 2.0 §3.7.2.2).
+pub(super) fn merge_targets(
+    src: &Source,
+    per_primitive: Vec<Vec<MorphTarget>>,
+    node: &gltf::Node,
+    mesh: &gltf::Mesh,
+    normals_from_triangles: bool,
+) -> Result<Morphs, RigError> {
+    let at = format!("meshes[{}]", mesh.index());
+    let count = per_primitive.first().map_or(0, Vec::len);
+    if let Some(other) = per_primitive.iter().find(|t| t.len() != count) {
+        let message = format!(
+            "its triangle primitives have {count} and {} morph targets (glTF requires as many \
+             on every primitive)",
+            other.len()
+        );
+        return Err(invalid(src.file, at, message));
+    }
+    let mut targets = vec![MorphTarget::default(); count];
+    for primitive in per_primitive {
+        for (target, part) in targets.iter_mut().zip(primitive) {
+            target.positions.extend(part.positions);
+            target.normals.extend(part.normals);
+        }
+    }
+    let (weights, whose) = match (node.weights(), mesh.weights()) {
+        (Some(w), _) => (Some(w), format!("nodes[{}].weights", node.index())),
+        (None, w) => (w, format!("{at}.weights")),
+    };
+    let default_weights = match weights {
+        Some(w) if w.len() != count => {
+            let message = format!("{} weights for {count} morph targets", w.len());
+            return Err(invalid(src.file, whose, message));
+        }
+        Some(w) if w.iter().any(|x| !x.is_finite()) => {
+            return Err(invalid(src.file, whose, "holds a non-finite weight"));
+        }
+        Some(w) => w.iter().map(|&x| f64::from(x)).collect(),
+        None => vec![0.0; count],
+    };
+    Ok(Morphs {
+        targets,
+        default_weights,
+        normals_from_triangles,
+    })
+}
