@@ -1,6 +1,9 @@
 //! Malformed and hostile inputs: every one must give a typed error naming the file and the
 //! element, or a documented fallback with a warning — never a panic.
 
+#[path = "common/glb.rs"]
+mod glb;
+
 use base64::Engine;
 use contact_skin::rig::{self, RigError};
 use serde_json::{json, Value};
@@ -791,4 +794,33 @@ fn morph_weight_channels_are_checked() {
         "{:?}",
         rig.warnings
     );
+}
+
+/// Many morph targets reading one dense accessor: past `MAX_MORPH_DISPLACEMENTS` stored
+/// displacements a body is refused (the file's size does not bound them).
+#[test]
+fn morph_targets_sharing_an_accessor_are_bounded() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("rigs/bending_capsule.glb");
+    let bytes = std::fs::read(&path).expect("committed rig");
+    let n = rig::load(&path).expect("loads").bodies[0].vertex_count();
+    let per_target = 2 * n; // its positions and normals, nearly all non-zero
+    let count = contact_skin::rig::MAX_MORPH_DISPLACEMENTS / per_target + 2;
+    let edited = |count: usize| {
+        glb::with_json(&bytes, |json| {
+            let attributes = json["meshes"][0]["primitives"][0]["attributes"].clone();
+            let target =
+                json!({"POSITION": attributes["POSITION"], "NORMAL": attributes["NORMAL"]});
+            json["meshes"][0]["primitives"][0]["targets"] = Value::Array(vec![target; count]);
+        })
+    };
+    let refused = rig::load_from_bytes(Path::new("test.glb"), &edited(count));
+    let message = refused.expect_err("too many displacements").to_string();
+    let cap = contact_skin::rig::MAX_MORPH_DISPLACEMENTS;
+    assert!(
+        message.contains(&format!("more than {cap} displacements")),
+        "{message}"
+    );
+    // A few such targets load (default weights 0: the bind shape).
+    let rig = rig::load_from_bytes(Path::new("test.glb"), &edited(3)).expect("three targets");
+    assert_eq!(rig.bodies[0].morphs.len(), 3);
 }

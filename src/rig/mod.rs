@@ -17,7 +17,7 @@ mod weights;
 pub use animation::{Animation, Channel, Interpolation, Property};
 pub use error::RigError;
 pub(crate) use load::{confined_path, read_whole, Confinement, Unreadable};
-pub use load::{load, load_from_bytes};
+pub use load::{load, load_from_bytes, MAX_MORPH_DISPLACEMENTS};
 pub use morph::{MorphTarget, MorphedShape, Morphs};
 pub use skeleton::{LocalTransform, Node, Pose, Trs};
 pub use weights::SkinWeights;

@@ -48,6 +48,18 @@ pub struct MorphedShape {
     pub normals: Vec<Vector3<f64>>,
 }
 
+impl MorphTarget {
+    /// Number of displacements it holds (POSITION and NORMAL).
+    pub fn len(&self) -> usize {
+        self.positions.len() + self.normals.len()
+    }
+
+    /// Whether it displaces nothing.
+    pub fn is_empty(&self) -> bool {
+        self.positions.is_empty() && self.normals.is_empty()
+    }
+}
+
 impl Morphs {
     /// Number of targets.
     pub fn len(&self) -> usize {

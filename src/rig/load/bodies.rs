@@ -93,12 +93,13 @@ fn read_body(
     };
     let mut has_normals = true;
     let mut primitive_extras = Vec::new();
-    let mut targets = Vec::new();
+    let mut targets: Vec<Vec<MorphTarget>> = Vec::new();
     for prim in mesh.primitives() {
         let at = PrimitiveAt {
             mesh: mesh.index(),
             skin,
             rigid,
+            displacements: targets.iter().flatten().map(MorphTarget::len).sum(),
         };
         let read = read_primitive(src, doc, &prim, &at, &mut body, warnings)?;
         has_normals &= read.has_normals;
@@ -200,6 +201,8 @@ struct PrimitiveAt<'a> {
     mesh: usize,
     skin: &'a Skin,
     rigid: bool,
+    /// Morph target displacements the body's earlier primitives hold.
+    displacements: usize,
 }
 
 /// Appends one primitive to `body`.
@@ -235,7 +238,8 @@ fn read_primitive(
         read_weights(src, doc, prim, &at, n, place.skin, warnings)?
     };
     let extras = read_extras(src, doc, prim, &at, n, warnings)?;
-    let targets = read_primitive_targets(src, doc, prim, &at, n, body.positions.len())?;
+    let first = body.positions.len();
+    let targets = read_primitive_targets(src, doc, prim, (&at, place.displacements), n, first)?;
     let indices = match prim.indices() {
         Some(acc) => {
             accessor::read_indices(

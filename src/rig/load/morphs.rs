@@ -6,27 +6,42 @@ use crate::rig::accessor::{self, Source};
 use crate::rig::{MorphTarget, Morphs, RigError};
 use nalgebra::Vector3;
 
-/// The morph targets of one triangle primitive of `n` vertices whose first vertex is body
-/// vertex `first`: their non-zero displacements, indexed in the body. A target's accessor must
-/// hold one finite VEC3 per vertex.
+/// Most non-zero displacements the morph targets of one body may hold (32 bytes each: 512 MiB).
+/// A file can make many targets read one accessor, so the targets' size is not bounded by the
+/// file's (a 200 kB JSON of 10k targets sharing one dense 100k-vertex accessor would ask for
+/// 24 GB); real face rigs hold a few million.
+pub const MAX_MORPH_DISPLACEMENTS: usize = 1 << 24;
+
+/// The morph targets of one triangle primitive (at `at`, after `before` displacements of the
+/// body's earlier primitives) of `n` vertices whose first vertex is body vertex `first`: their
+/// non-zero displacements, indexed in the body. A target's accessor must hold one finite VEC3
+/// per vertex.
 pub(super) fn read_primitive_targets(
     src: &Source,
     doc: &gltf::Document,
     prim: &gltf::Primitive,
-    at: &str,
+    (at, before): (&str, usize),
     n: usize,
     first: usize,
 ) -> Result<Vec<MorphTarget>, RigError> {
     let mut targets = Vec::new();
+    let mut held = before;
     for (k, target) in prim.morph_targets().enumerate() {
         let read = |acc: Option<gltf::Accessor>, name: &str| {
             let role = format!("{name} of {at}.targets[{k}]");
             displacements(src, doc, acc, &role, n, first)
         };
-        targets.push(MorphTarget {
+        let target = MorphTarget {
             positions: read(target.positions(), "POSITION")?,
             normals: read(target.normals(), "NORMAL")?,
-        });
+        };
+        held += target.len();
+        if held > MAX_MORPH_DISPLACEMENTS {
+            let message =
+                format!("its morph targets hold more than {MAX_MORPH_DISPLACEMENTS} displacements");
+            return Err(invalid(src.file, at, message));
+        }
+        targets.push(target);
     }
     Ok(targets)
 }
@@ -43,6 +58,10 @@ fn displacements(
     let Some(acc) = acc else {
         return Ok(Vec::new());
     };
+    if acc.count() != n {
+        let message = format!("{} elements for {n} vertices", acc.count());
+        return Err(invalid(src.file, role, message));
+    }
     let values = accessor::read(src, doc, acc.index(), role, &[3], false)?;
     if values.count() != n {
         let message = format!("{} elements for {n} vertices", values.count());
