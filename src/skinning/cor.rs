@@ -792,15 +792,14 @@ pub fn skin(body: &Body, centers: &CorCenters, mats: &[Matrix4<f64>]) -> Skinned
 }
 
 /// [`skin`] of `shape` (a body's bind shape or a morph of it, whose centers stay the bind
-/// shape's) with its `weights`.
+/// shape's) with its `skin_weights`.
 pub fn skin_shape(
-    weights: &SkinWeights,
+    skin_weights: &SkinWeights,
     shape: BindShape,
     centers: &CorCenters,
     mats: &[Matrix4<f64>],
 ) -> Skinned {
     let split = joint_dqs(mats);
-    let rows = weights;
     let (positions, normals) = (0..shape.positions.len())
         .into_par_iter()
         .with_min_len(1024)
@@ -808,11 +807,11 @@ pub fn skin_shape(
             let p = &shape.positions[v];
             let n = shape.normals.get(v).copied().unwrap_or_else(Vector3::zeros);
             match centers.centers.get(v).copied().flatten() {
-                Some(c) if v < rows.len() => {
-                    let (joints, weights) = rows.row_slices(v);
+                Some(c) if v < skin_weights.len() => {
+                    let (joints, weights) = skin_weights.row_slices(v);
                     skin_vertex_cor(joints, weights, p, &n, &c, mats, &split)
                 }
-                _ if v < rows.len() => lbs::skin_vertex(rows, v, p, &n, mats),
+                _ if v < skin_weights.len() => lbs::skin_vertex(skin_weights, v, p, &n, mats),
                 _ => (*p, unit_or_zero(n)),
             }
         })

@@ -85,15 +85,14 @@ pub fn skin(body: &Body, mats: &[Matrix4<f64>]) -> Skinned {
 }
 
 /// Dual quaternion skinning of `shape` (a body's bind shape or a morph of it) with its
-/// `weights`.
-pub fn skin_shape(weights: &SkinWeights, shape: BindShape, mats: &[Matrix4<f64>]) -> Skinned {
+/// `skin_weights`.
+pub fn skin_shape(skin_weights: &SkinWeights, shape: BindShape, mats: &[Matrix4<f64>]) -> Skinned {
     let dqs = joint_dqs(mats);
-    let rows = weights;
     let (positions, normals) = (0..shape.positions.len())
         .into_par_iter()
         .with_min_len(1024)
         .map(|v| {
-            let (joints, weights) = rows.row_slices(v);
+            let (joints, weights) = skin_weights.row_slices(v);
             let pivot = joints
                 .iter()
                 .zip(weights)

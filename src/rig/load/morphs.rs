@@ -63,10 +63,6 @@ fn displacements(
         return Err(invalid(src.file, role, message));
     }
     let values = accessor::read(src, doc, acc.index(), role, &[3], false)?;
-    if values.count() != n {
-        let message = format!("{} elements for {n} vertices", values.count());
-        return Err(invalid(src.file, role, message));
-    }
     if values.data.iter().any(|x| !x.is_finite()) {
         return Err(invalid(src.file, role, "holds a non-finite value"));
     }
