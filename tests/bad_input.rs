@@ -824,3 +824,27 @@ fn morph_targets_sharing_an_accessor_are_bounded() {
     let rig = rig::load_from_bytes(Path::new("test.glb"), &edited(3)).expect("three targets");
     assert_eq!(rig.bodies[0].morphs.len(), 3);
 }
+
+/// Required extensions (glTF 2.0 §3.12): those that only change rendering, and
+/// `KHR_mesh_quantization`, load; compressed geometry, GPU instancing and unknown ones are
+/// refused, naming the extension.
+#[test]
+fn required_extensions_are_honoured_or_refused() {
+    for accepted in ["KHR_texture_basisu", "KHR_materials_clearcoat", "KHR_mesh_quantization"] {
+        let mut d = fixed_doc();
+        d["extensionsUsed"] = json!([accepted]);
+        d["extensionsRequired"] = json!([accepted]);
+        load_json(&d).unwrap_or_else(|e| panic!("{accepted}: {e}"));
+    }
+    for (refused, why) in [
+        ("EXT_meshopt_compression", "decompress"),
+        ("EXT_mesh_gpu_instancing", "instances"),
+        ("EXT_unknown", "does not support"),
+    ] {
+        let mut d = fixed_doc();
+        d["extensionsUsed"] = json!(["KHR_texture_basisu", refused]);
+        d["extensionsRequired"] = json!(["KHR_texture_basisu", refused]);
+        let e = expect_err(&d, why);
+        assert!(e.to_string().contains(&format!("extensionsRequired[1]: {refused}")), "{e}");
+    }
+}
