@@ -830,7 +830,11 @@ fn morph_targets_sharing_an_accessor_are_bounded() {
 /// refused, naming the extension.
 #[test]
 fn required_extensions_are_honoured_or_refused() {
-    for accepted in ["KHR_texture_basisu", "KHR_materials_clearcoat", "KHR_mesh_quantization"] {
+    for accepted in [
+        "KHR_texture_basisu",
+        "KHR_materials_clearcoat",
+        "KHR_mesh_quantization",
+    ] {
         let mut d = fixed_doc();
         d["extensionsUsed"] = json!([accepted]);
         d["extensionsRequired"] = json!([accepted]);
@@ -845,6 +849,10 @@ fn required_extensions_are_honoured_or_refused() {
         d["extensionsUsed"] = json!(["KHR_texture_basisu", refused]);
         d["extensionsRequired"] = json!(["KHR_texture_basisu", refused]);
         let e = expect_err(&d, why);
-        assert!(e.to_string().contains(&format!("extensionsRequired[1]: {refused}")), "{e}");
+        assert!(
+            e.to_string()
+                .contains(&format!("extensionsRequired[1]: {refused}")),
+            "{e}"
+        );
     }
 }
