@@ -24,7 +24,7 @@ const ACCEPTED: &[&str] = &[
 ];
 
 /// Whether posing can honour a file that requires `name`.
-pub(super) fn accepted(name: &str) -> bool {
+fn accepted(name: &str) -> bool {
     ACCEPTED.contains(&name) || name.starts_with("KHR_materials_")
 }
 
