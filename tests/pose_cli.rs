@@ -254,6 +254,44 @@ fn frames_sharing_a_key_time_are_baked_once() {
     assert_eq!(sampler.input().count(), 3);
 }
 
+/// A baked glb read back by the crate's own loader, morph targets and `weights` animation
+/// included, plays the frames it was baked from: at each frame's time the posed positions are
+/// the frame's (to `f32`), and halfway between two frames the weights' LINEAR interpolation
+/// gives the mean of the two.
+#[test]
+fn a_baked_glb_plays_back_its_frames() {
+    use contact_skin::output::glb;
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("rigs/bending_capsule.glb");
+    let rig = rig::load(&path).expect("load");
+    let pre = Precomputed::new(&rig, Method::Lbs);
+    let times = [0.0, 0.5, 1.0, 1.5];
+    let frames: Vec<_> = (times.iter().enumerate())
+        .map(|(k, &t)| frames::evaluate(&rig, &pre, Some(0), k, t))
+        .collect();
+    let bytes = glb::bake(&rig, &frames, "test").expect("bake");
+    let baked = rig::load_from_bytes(Path::new("baked.glb"), &bytes).expect("reads back");
+    let played = Precomputed::new(&baked, Method::Lbs);
+    let at = |t: f64| frames::evaluate(&baked, &played, Some(0), 0, t).bodies[0].clone();
+    let far = |a: &[nalgebra::Point3<f64>], b: &[nalgebra::Point3<f64>]| {
+        (a.iter().zip(b))
+            .map(|(p, q)| (p - q).norm())
+            .fold(0.0, f64::max)
+    };
+    for (frame, &t) in frames.iter().zip(&times) {
+        let d = far(&at(t).positions, &frame.bodies[0].positions);
+        assert!(d < 1e-5, "t = {t}: {d}");
+    }
+    let (a, b) = (
+        &frames[1].bodies[0].positions,
+        &frames[2].bodies[0].positions,
+    );
+    let mean: Vec<_> = (a.iter().zip(b))
+        .map(|(p, q)| nalgebra::center(p, q))
+        .collect();
+    let d = far(&at(0.75).positions, &mean);
+    assert!(d < 1e-5, "halfway: {d}");
+}
+
 /// The baker refuses what it cannot bake with a typed error, before building anything: no
 /// frame (it indexed the first and panicked), a frame with another body count, or one with
 /// fewer positions than the rig's primitives.
