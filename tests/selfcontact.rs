@@ -883,6 +883,54 @@ fn lips_closed_by_a_morph_target_fold() {
     check("morph mouth", &r, 0, 0, 3.0);
 }
 
+/// `bytes` (one body, one morph target) with NORMAL displacements added to its target that
+/// turn every normal over at full weight (`-1.5 n`).
+fn with_normals_turned_by_the_target(bytes: &[u8]) -> Vec<u8> {
+    let rig = rig::load_from_bytes(std::path::Path::new("morph.glb"), bytes).expect("loads");
+    let normals = &rig.bodies[0].normals;
+    let data: Vec<u8> = (normals
+        .iter()
+        .flat_map(|n| n.iter().map(|&c| (-1.5 * c) as f32)))
+    .flat_map(f32::to_le_bytes)
+    .collect();
+    glb::with_bin_appended(bytes, &data, |json, offset| {
+        let views = json["bufferViews"].as_array_mut().expect("views");
+        views
+            .push(serde_json::json!({"buffer": 0, "byteOffset": offset, "byteLength": data.len()}));
+        let view = views.len() - 1;
+        let accessors = json["accessors"].as_array_mut().expect("accessors");
+        accessors.push(
+            serde_json::json!({"bufferView": view, "componentType": 5126,
+                                          "count": normals.len(), "type": "VEC3"}),
+        );
+        let a = accessors.len() - 1;
+        json["meshes"][0]["primitives"][0]["targets"][0]["NORMAL"] = serde_json::json!(a);
+    })
+}
+
+/// Without given normals, the pass takes the turn guard's reference from the bind normals
+/// skinned by LBS, morphed by the pose's weights: the same output, to the bit, as with the
+/// frame's own LBS normals, on lips whose target also turns their normals over (until
+/// 2026-12-06 the bind normals were taken unmorphed).
+#[test]
+fn the_pass_without_normals_follows_the_morphed_normals() {
+    let bytes = with_normals_turned_by_the_target(&mouth_closed_by_a_morph_target());
+    let l = scenes::load_bytes("mouth", &bytes, 31);
+    let pass = self_pass(&l, &[]);
+    let mut folds = 0;
+    for f in [14, 20, 26, 30] {
+        let input = l.frame(f);
+        let pose = l.rig.pose_at(Some(0), l.times[f]);
+        let (mut own, mut given) = (input.clone(), input.clone());
+        let res = pass.run(&l.rig, &pose, &mut own).expect("runs");
+        pass.run_with_normals(&l.rig, &pose, &mut given, &l.frame_normals(f))
+            .expect("runs");
+        folds += res.folds.len();
+        assert!(own == given, "frame {f}: the outputs differ");
+    }
+    assert!(folds > 0, "the lips fold");
+}
+
 /// The mouth closing, with the paper's hand-set vertical direction (Fig. 1d): the upper lip's
 /// outward direction is -Y. The jaw stops abruptly (frame 24 of 31). Sampled twice as finely,
 /// the input's largest second difference halves (0.31 -> 0.15 h), and so does the output's

@@ -219,7 +219,8 @@ impl SelfContactPass {
     }
 
     /// The turn guard's reference normals of `fold`'s body in this pose (`None` for a body
-    /// without a skin): the `given` normals of the body, else linear blend skinning's.
+    /// without a skin): the `given` normals of the body, else linear blend skinning's of its
+    /// bind normals, morphed by the pose's weights where it has morph targets.
     fn skinned_normals<'s>(
         &'s self,
         rig: &'s Rig,
@@ -232,8 +233,13 @@ impl SelfContactPass {
         if let Some(normals) = given.and_then(|n| n.get(fold.body)) {
             return Some(SkinnedNormals::Given(normals));
         }
+        let bind = match body.morphed(pose.morph_weights_of(body.node)) {
+            Some(shape) => std::borrow::Cow::Owned(shape.normals),
+            None => std::borrow::Cow::Borrowed(&body.normals[..]),
+        };
         Some(SkinnedNormals::Linear(LinearNormals {
             body,
+            bind,
             mats: pose.skin_matrices(skin),
             rest: self.rest_normals.get(fold.body)?,
             representative: self.representative.get(fold.body)?,
@@ -488,6 +494,8 @@ impl SkinnedNormals<'_> {
 /// carries it (the cofactor), whatever skinning made the input.
 struct LinearNormals<'s> {
     body: &'s crate::rig::Body,
+    /// The body's bind normals, morphed where the pose weights its morph targets.
+    bind: std::borrow::Cow<'s, [Vector3<f64>]>,
     mats: Vec<nalgebra::Matrix4<f64>>,
     rest: &'s [Vector3<f64>],
     representative: &'s [u32],
@@ -506,8 +514,7 @@ impl LinearNormals<'_> {
             }
         }
         let n = self
-            .body
-            .normals
+            .bind
             .get(rep)
             .filter(|n| n.norm_squared() > 0.0)
             .or_else(|| self.rest.get(v))
