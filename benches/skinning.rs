@@ -1,6 +1,7 @@
 //! Skinning benchmarks on a synthetic ~30k-vertex, 20-bone character built in code: LBS, DQS
-//! and center-of-rotation (Le & Hodgins 2016) per-frame times, and the CoR center
-//! precomputation.
+//! and center-of-rotation (Le & Hodgins 2016) per-frame times, LBS after morph targets (52
+//! targets of 2k vertices each, as a face's blend shapes, 10 of them weighted), and the CoR
+//! center precomputation.
 //!
 //! The character is a set of open tubes (torso + neck + head chain, two 4-bone arms, two 3-bone
 //! legs) whose weights blend over bands around every joint. The bands are oblique (their
@@ -13,9 +14,9 @@
 //!
 //! Run with `cargo bench --bench skinning`.
 
-use contact_skin::rig::{Body, PrimitiveRange, SkinWeights};
+use contact_skin::rig::{Body, MorphTarget, Morphs, PrimitiveRange, SkinWeights};
 use contact_skin::skinning::cor::{self, CorCenters, CorParams};
-use contact_skin::skinning::{dqs, lbs};
+use contact_skin::skinning::{dqs, lbs, BindShape};
 use criterion::{criterion_group, criterion_main, Criterion, SamplingMode};
 use nalgebra::{Matrix4, Point3, Rotation3, Translation3, Unit, Vector3};
 use std::f64::consts::PI;
@@ -261,6 +262,30 @@ fn report(name: &str, body: &Body) {
     );
 }
 
+/// `body` with 52 morph targets, target `k` displacing the 2000 vertices from `300 k` on (as a
+/// face's blend shapes each move a part of the head), and 10 of them weighted.
+fn with_blend_shapes(body: &Body) -> (Body, Vec<f64>) {
+    let n = body.vertex_count() as u32;
+    let targets = (0..52u32)
+        .map(|k| MorphTarget {
+            positions: (300 * k..(300 * k + 2000).min(n))
+                .map(|v| (v, Vector3::new(1e-3, 2e-3 * f64::from(k % 3), -1e-3)))
+                .collect(),
+            normals: Vec::new(),
+        })
+        .collect();
+    let mut morphed = body.clone();
+    morphed.morphs = Morphs {
+        targets,
+        default_weights: vec![0.0; 52],
+        normals_from_triangles: false,
+    };
+    let weights = (0..52)
+        .map(|k| if k % 5 == 0 { 0.5 } else { 0.0 })
+        .collect();
+    (morphed, weights)
+}
+
 fn skinning(c: &mut Criterion) {
     let character = Character::new();
     let body = character.body(0.25);
@@ -280,6 +305,17 @@ fn skinning(c: &mut Criterion) {
     });
     g.bench_function("cor_30k", |b| {
         b.iter(|| cor::skin(black_box(&body), black_box(&centers), black_box(&mats)))
+    });
+    let (shaped, weights) = with_blend_shapes(&body);
+    g.bench_function("morph_then_lbs_30k", |b| {
+        b.iter(|| {
+            let shape = shaped.morphed(Some(black_box(&weights))).expect("weighted");
+            lbs::skin_shape(
+                &shaped.weights,
+                BindShape::morphed(&shape),
+                black_box(&mats),
+            )
+        })
     });
     g.finish();
 

@@ -89,20 +89,28 @@ impl Morphs {
             return None;
         }
         let mut moved = positions.to_vec();
-        let mut turned = normals.to_vec();
         for &(target, w) in &active {
             add_weighted(&mut moved, &target.positions, w, |p, d| p.coords += d);
-            if !self.normals_from_triangles {
-                add_weighted(&mut turned, &target.normals, w, |n, d| *n += d);
-            }
         }
         let normals = if self.normals_from_triangles {
             super::load::area_weighted_normals(&moved, triangles)
         } else {
+            // Only the displaced normals are summed and normalized again: the others stay the
+            // bind normals to the bit.
+            let mut turned = normals.to_vec();
+            let mut touched: Vec<u32> = Vec::new();
+            for &(target, w) in &active {
+                add_weighted(&mut turned, &target.normals, w, |n, d| *n += d);
+                touched.extend(target.normals.iter().map(|&(v, _)| v));
+            }
+            touched.sort_unstable();
+            touched.dedup();
+            for v in touched {
+                if let Some(n) = turned.get_mut(v as usize) {
+                    *n = crate::skinning::unit_or_zero(*n);
+                }
+            }
             turned
-                .into_iter()
-                .map(crate::skinning::unit_or_zero)
-                .collect()
         };
         Some(MorphedShape {
             positions: moved,
