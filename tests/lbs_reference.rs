@@ -1616,6 +1616,31 @@ fn morph_targets_at_the_default_weights() {
     assert!(distance(a[3], b[3]) > 0.05, "{:?} vs {:?}", a[3], b[3]);
 }
 
+/// DQS and CoR skin the morphed shape too: at the bind pose (every skinning the identity)
+/// each method gives the bind positions plus the weighted displacements.
+#[test]
+fn every_skinning_reads_the_morphed_shape() {
+    let bytes = morphed_strip(Vec::new(), false);
+    let rig = rig::load_from_bytes(Path::new("morphs.gltf"), &bytes).expect("loads");
+    let lbs = frames::evaluate(&rig, &Precomputed::new(&rig, Method::Lbs), None, 0, 0.0);
+    for method in [Method::Dqs, Method::Cor] {
+        let posed = frames::evaluate(&rig, &Precomputed::new(&rig, method), None, 0, 0.0);
+        let p = posed.bodies[0].positions[3];
+        let want = vertex_3_morphed([0.5, -0.25]);
+        assert!(
+            distance([p.x, p.y, p.z], want) < 1e-6,
+            "{method}: {p} vs {want:?}"
+        );
+        for (a, b) in posed.bodies[0]
+            .positions
+            .iter()
+            .zip(&lbs.bodies[0].positions)
+        {
+            assert!((a - b).norm() < 1e-9, "{method}: {a} vs LBS {b}");
+        }
+    }
+}
+
 /// A node's `weights` override its mesh's (glTF 2.0 §3.7.2.2).
 #[test]
 fn node_weights_override_the_mesh_weights() {
