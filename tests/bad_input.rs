@@ -116,6 +116,15 @@ fn fixed_doc_of(layout: &Layout) -> Value {
     d
 }
 
+/// Requires a warning of `rig` mentioning `needle`.
+fn assert_warned(rig: &rig::Rig, needle: &str) {
+    assert!(
+        rig.warnings.iter().any(|w| w.contains(needle)),
+        "no warning mentions '{needle}': {:?}",
+        rig.warnings
+    );
+}
+
 fn expect_err(v: &Value, needle: &str) -> RigError {
     match load_json(v) {
         Ok(_) => panic!("expected an error mentioning '{needle}'"),
@@ -268,11 +277,7 @@ fn nan_and_negative_weights_fall_back_with_a_warning() {
         [1., 0., 0., 0.],
     ]);
     let rig = load_json(&d).expect("documented fallback");
-    assert!(
-        rig.warnings.iter().any(|w| w.contains("NaN")),
-        "{:?}",
-        rig.warnings
-    );
+    assert_warned(&rig, "NaN");
     let w = &rig.bodies[0].weights;
     assert_eq!(w.row(0).collect::<Vec<_>>(), vec![(1, 1.0)]);
     assert_eq!(w.row(1).collect::<Vec<_>>(), vec![(0, 1.0)]);
@@ -282,8 +287,8 @@ fn nan_and_negative_weights_fall_back_with_a_warning() {
 fn all_zero_weights_bind_to_the_first_joint_with_a_warning() {
     let d = with_weights([[0.; 4], [0.2, 0.2, 0., 0.], [1., 0., 0., 0.]]);
     let rig = load_json(&d).expect("documented fallback");
-    assert!(rig.warnings.iter().any(|w| w.contains("no usable weight")));
-    assert!(rig.warnings.iter().any(|w| w.contains("renormalized")));
+    assert_warned(&rig, "no usable weight");
+    assert_warned(&rig, "renormalized");
     let w = &rig.bodies[0].weights;
     assert_eq!(w.row(0).collect::<Vec<_>>(), vec![(0, 1.0)]);
     let sum: f64 = w.row(1).map(|(_, x)| x).sum();
@@ -352,13 +357,7 @@ fn zero_rotation_keys_are_the_rest_rotation_with_a_warning() {
     let h = std::f32::consts::FRAC_1_SQRT_2;
     d["nodes"][2]["rotation"] = json!([0.0, h, 0.0, h]);
     let rig = load_json(&d).expect("loads");
-    assert!(
-        rig.warnings
-            .iter()
-            .any(|w| w.contains("1 rotation key(s) are zero")),
-        "{:?}",
-        rig.warnings
-    );
+    assert_warned(&rig, "1 rotation key(s) are zero");
     let key = &rig.animations[0].channels[0].values[4..8];
     let rest = [0.0, f64::from(h), 0.0, f64::from(h)];
     assert_eq!(key, rest.as_slice());
@@ -787,13 +786,7 @@ fn morph_weight_channels_are_checked() {
         .expect("mesh")
         .remove("weights");
     let rig = load_json(&none).expect("an ignored channel");
-    assert!(
-        rig.warnings
-            .iter()
-            .any(|w| w.contains("without morph targets")),
-        "{:?}",
-        rig.warnings
-    );
+    assert_warned(&rig, "without morph targets");
 }
 
 /// Many morph targets reading one dense accessor: past `MAX_MORPH_DISPLACEMENTS` stored

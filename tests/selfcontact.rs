@@ -293,32 +293,54 @@ fn capsule_with_swell(swell: f64) -> Vec<u8> {
         data.extend(d.iter().flat_map(|&x| (x as f32).to_le_bytes()));
     }
     let anim = &rig.animations[0];
-    let keys = [anim.start as f32, anim.end as f32, 0.0, 1.0];
-    let keys_at = data.len();
-    data.extend(keys.iter().flat_map(|x| x.to_le_bytes()));
-    let n = body.vertex_count();
-    glb::with_bin_appended(&bytes, &data, |json, offset| {
-        let views = json["bufferViews"].as_array_mut().expect("views");
-        views.push(serde_json::json!({"buffer": 0, "byteOffset": offset, "byteLength": keys_at}));
-        views.push(
-            serde_json::json!({"buffer": 0, "byteOffset": offset + keys_at, "byteLength": 16}),
-        );
-        let v = views.len();
-        let accessors = json["accessors"].as_array_mut().expect("accessors");
-        accessors.push(serde_json::json!({"bufferView": v - 2, "componentType": 5126, "count": n, "type": "VEC3"}));
-        accessors.push(serde_json::json!({"bufferView": v - 1, "componentType": 5126, "count": 2, "type": "SCALAR", "min": [keys[0]], "max": [keys[1]]}));
-        accessors.push(serde_json::json!({"bufferView": v - 1, "byteOffset": 8, "componentType": 5126, "count": 2, "type": "SCALAR"}));
-        let a = accessors.len();
-        json["meshes"][0]["primitives"][0]["targets"] = serde_json::json!([{"POSITION": a - 3}]);
-        json["meshes"][0]["weights"] = serde_json::json!([0.0]);
-        let node = rig.bodies[0].node;
+    let ramp = ([anim.start, anim.end], [0.0, 1.0]);
+    with_weighted_target(&bytes, &data, body, (&ramp.0, &ramp.1), false)
+}
+
+/// `bytes` with a POSITION morph target on `body`'s (one) primitive, its displacements the f32
+/// triples `deltas`, and an animation channel on its node weighting it `weights` at `times`:
+/// beside the first animation's channels, or in place of them when `alone`.
+fn with_weighted_target(
+    bytes: &[u8],
+    deltas: &[u8],
+    body: &rig::Body,
+    (times, weights): (&[f64], &[f64]),
+    alone: bool,
+) -> Vec<u8> {
+    use serde_json::json;
+    let mut data = deltas.to_vec();
+    data.extend(
+        times
+            .iter()
+            .chain(weights)
+            .flat_map(|&x| (x as f32).to_le_bytes()),
+    );
+    let (n, k) = (body.vertex_count(), times.len());
+    glb::with_bin_appended(bytes, &data, |json, offset| {
+        let vec3 = json!({"componentType": 5126, "count": n, "type": "VEC3"});
+        let target = glb::push_accessor(json, (offset, deltas.len()), None, vec3);
+        let (first, last) = (times[0], times[k - 1]);
+        let input = json!({"componentType": 5126, "count": k, "type": "SCALAR",
+                           "min": [first], "max": [last]});
+        let at = offset + deltas.len();
+        let input = glb::push_accessor(json, (at, 4 * k), None, input);
+        let output = json!({"componentType": 5126, "count": k, "type": "SCALAR"});
+        let output = glb::push_accessor(json, (at + 4 * k, 4 * k), None, output);
+        json["meshes"][0]["primitives"][0]["targets"] = json!([{"POSITION": target}]);
+        json["meshes"][0]["weights"] = json!([0.0]);
         let animation = &mut json["animations"][0];
+        if alone {
+            animation["samplers"] = json!([]);
+            animation["channels"] = json!([]);
+        }
         let samplers = animation["samplers"].as_array_mut().expect("samplers");
-        samplers.push(serde_json::json!({"input": a - 2, "output": a - 1}));
+        samplers.push(json!({"input": input, "output": output}));
         let sampler = samplers.len() - 1;
-        animation["channels"].as_array_mut().expect("channels").push(
-            serde_json::json!({"sampler": sampler, "target": {"node": node, "path": "weights"}}),
-        );
+        let channel = json!({"sampler": sampler, "target": {"node": body.node, "path": "weights"}});
+        animation["channels"]
+            .as_array_mut()
+            .expect("channels")
+            .push(channel);
     })
 }
 
@@ -836,34 +858,13 @@ fn mouth_closed_by_a_morph_target() -> Vec<u8> {
             data.extend((x as f32).to_le_bytes());
         }
     }
-    let keys_at = data.len();
-    for x in [0.0f32, 2.5, 3.0, 0.0, 1.0, 1.0] {
-        data.extend(x.to_le_bytes());
-    }
-    let n = body.vertex_count();
-    let node = body.node;
-    glb::with_bin_appended(&bytes, &data, |json, offset| {
-        use serde_json::json;
-        let views = json["bufferViews"].as_array_mut().expect("views");
-        let v = views.len();
-        views.push(json!({"buffer": 0, "byteOffset": offset, "byteLength": keys_at}));
-        views.push(json!({"buffer": 0, "byteOffset": offset + keys_at, "byteLength": 24}));
-        let accessors = json["accessors"].as_array_mut().expect("accessors");
-        let a = accessors.len();
-        accessors.push(json!({"bufferView": v, "componentType": 5126, "count": n, "type": "VEC3"}));
-        accessors.push(
-            json!({"bufferView": v + 1, "componentType": 5126, "count": 3,
-                              "type": "SCALAR", "min": [0.0], "max": [3.0]}),
-        );
-        accessors.push(
-            json!({"bufferView": v + 1, "byteOffset": 12, "componentType": 5126,
-                              "count": 3, "type": "SCALAR"}),
-        );
-        json["meshes"][0]["primitives"][0]["targets"] = json!([{"POSITION": a}]);
-        json["animations"][0]["samplers"] = json!([{"input": a + 1, "output": a + 2}]);
-        json["animations"][0]["channels"] =
-            json!([{"sampler": 0, "target": {"node": node, "path": "weights"}}]);
-    })
+    with_weighted_target(
+        &bytes,
+        &data,
+        body,
+        (&[0.0, 2.5, 3.0], &[0.0, 1.0, 1.0]),
+        true,
+    )
 }
 
 /// Lips that close by a blend shape, the bones still (a face rig's usual way): the head-jaw
@@ -894,16 +895,9 @@ fn with_normals_turned_by_the_target(bytes: &[u8]) -> Vec<u8> {
     .flat_map(f32::to_le_bytes)
     .collect();
     glb::with_bin_appended(bytes, &data, |json, offset| {
-        let views = json["bufferViews"].as_array_mut().expect("views");
-        views
-            .push(serde_json::json!({"buffer": 0, "byteOffset": offset, "byteLength": data.len()}));
-        let view = views.len() - 1;
-        let accessors = json["accessors"].as_array_mut().expect("accessors");
-        accessors.push(
-            serde_json::json!({"bufferView": view, "componentType": 5126,
-                                          "count": normals.len(), "type": "VEC3"}),
-        );
-        let a = accessors.len() - 1;
+        let vec3 =
+            serde_json::json!({"componentType": 5126, "count": normals.len(), "type": "VEC3"});
+        let a = glb::push_accessor(json, (offset, data.len()), None, vec3);
         json["meshes"][0]["primitives"][0]["targets"][0]["NORMAL"] = serde_json::json!(a);
     })
 }

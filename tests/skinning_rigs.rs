@@ -115,25 +115,20 @@ fn quantized_capsule() -> (Vec<u8>, f64) {
     let (n, joints) = (body.vertex_count(), rig.skins[0].joints.len());
     let quantized = glb::with_bin_appended(&bytes, &data, |json, offset| {
         use serde_json::json;
-        let views = json["bufferViews"].as_array_mut().expect("views");
-        let v = views.len();
-        views.push(
-            json!({"buffer": 0, "byteOffset": offset, "byteLength": normals_at, "byteStride": 8}),
-        );
-        views.push(json!({"buffer": 0, "byteOffset": offset + normals_at, "byteLength": ibm_at - normals_at, "byteStride": 4}));
-        views.push(json!({"buffer": 0, "byteOffset": offset + ibm_at, "byteLength": 64 * joints}));
-        let accessors = json["accessors"].as_array_mut().expect("accessors");
-        let a = accessors.len();
-        accessors.push(json!({"bufferView": v, "componentType": 5122, "normalized": true, "count": n,
-                              "type": "VEC3", "min": [-32767, -32767, -32767], "max": [32767, 32767, 32767]}));
-        accessors.push(json!({"bufferView": v + 1, "componentType": 5120, "normalized": true, "count": n, "type": "VEC3"}));
-        accessors.push(
-            json!({"bufferView": v + 2, "componentType": 5126, "count": joints, "type": "MAT4"}),
-        );
+        let positions = json!({"componentType": 5122, "normalized": true, "count": n,
+                               "type": "VEC3", "min": [-32767, -32767, -32767],
+                               "max": [32767, 32767, 32767]});
+        let positions = glb::push_accessor(json, (offset, normals_at), Some(8), positions);
+        let normals =
+            json!({"componentType": 5120, "normalized": true, "count": n, "type": "VEC3"});
+        let normals_span = (offset + normals_at, ibm_at - normals_at);
+        let normals = glb::push_accessor(json, normals_span, Some(4), normals);
+        let ibm = json!({"componentType": 5126, "count": joints, "type": "MAT4"});
+        let ibm = glb::push_accessor(json, (offset + ibm_at, 64 * joints), None, ibm);
         let attributes = &mut json["meshes"][0]["primitives"][0]["attributes"];
-        attributes["POSITION"] = json!(a);
-        attributes["NORMAL"] = json!(a + 1);
-        json["skins"][0]["inverseBindMatrices"] = json!(a + 2);
+        attributes["POSITION"] = json!(positions);
+        attributes["NORMAL"] = json!(normals);
+        json["skins"][0]["inverseBindMatrices"] = json!(ibm);
         json["extensionsUsed"] = json!(["KHR_mesh_quantization"]);
         json["extensionsRequired"] = json!(["KHR_mesh_quantization"]);
     });

@@ -120,12 +120,12 @@ impl Animation {
                 continue;
             };
             let mut trs = local.trs();
-            let v = ch.sample(t);
+            let vector = |v: [f64; 4]| Vector3::new(v[0], v[1], v[2]);
             match ch.property {
-                Property::Translation => trs.translation = Vector3::new(v[0], v[1], v[2]),
-                Property::Scale => trs.scale = Vector3::new(v[0], v[1], v[2]),
+                Property::Translation => trs.translation = vector(ch.sample(t)),
+                Property::Scale => trs.scale = vector(ch.sample(t)),
                 Property::Rotation => {
-                    if let Some(q) = unit_quaternion(v) {
+                    if let Some(q) = unit_quaternion(ch.sample(t)) {
                         trs.rotation = q;
                     }
                 }

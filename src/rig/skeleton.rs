@@ -177,16 +177,14 @@ impl Rig {
     /// The pose of animation `animation` at time `t` (its transforms and morph weights), or the
     /// rest pose for `None`.
     pub fn pose_at(&self, animation: Option<usize>, t: f64) -> Pose {
-        match animation.and_then(|a| self.animations.get(a)) {
-            Some(anim) => {
-                let mut locals = self.rest_locals();
-                anim.apply(t, &mut locals);
-                let mut pose = self.pose_from_locals(&locals);
-                pose.morph_weights = anim.morph_weights(t, self.nodes.len());
-                pose
-            }
-            None => self.pose_from_locals(&self.rest_locals()),
+        let Some(a) = animation else {
+            return self.pose_from_locals(&self.rest_locals());
+        };
+        let mut pose = self.pose_from_locals(&self.animated_locals(a, t));
+        if let Some(anim) = self.animations.get(a) {
+            pose.morph_weights = anim.morph_weights(t, self.nodes.len());
         }
+        pose
     }
 }
 

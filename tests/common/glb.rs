@@ -245,3 +245,24 @@ pub fn with_primitive_appended(
             .push(primitive);
     })
 }
+
+/// Appends to `json` a buffer view over bytes `[offset, offset + length)` of buffer 0 (with
+/// `byteStride` when `stride` is given) and `accessor` reading it (its `bufferView` set);
+/// returns the accessor's index.
+pub fn push_accessor(
+    json: &mut Value,
+    (offset, length): (usize, usize),
+    stride: Option<usize>,
+    mut accessor: Value,
+) -> usize {
+    let mut view = serde_json::json!({"buffer": 0, "byteOffset": offset, "byteLength": length});
+    if let Some(stride) = stride {
+        view["byteStride"] = Value::from(stride);
+    }
+    let views = json["bufferViews"].as_array_mut().expect("buffer views");
+    views.push(view);
+    accessor["bufferView"] = Value::from(views.len() - 1);
+    let accessors = json["accessors"].as_array_mut().expect("accessors");
+    accessors.push(accessor);
+    accessors.len() - 1
+}
