@@ -17,8 +17,8 @@ pub(super) struct Blended {
 
 /// Sec. 6: `P = β P_1 + (1 - β) P_2`, `Q` likewise, one bulge height `h_v` on the blended pair
 /// (closed meshes), `p' = P + γ h_v Q`, the turn guard's scales applied to `P - p` and `Q`
-/// before `h_v` is solved again; the input when no bulge can keep the volume
-/// ([`FoldOutput::unbalanced`]).
+/// before `h_v` is solved again ([`Guards::settle`]); the input when no bulge can keep the
+/// volume ([`FoldOutput::unbalanced`]).
 pub(super) fn blend_and_balance(
     pre: &FoldPre,
     g: &FoldInput,
@@ -26,92 +26,63 @@ pub(super) fn blend_and_balance(
     params: &FoldParams,
     parts: [&MeshIndex; 2],
 ) -> Result<Blended, FoldError> {
-    let (positions, triangles) = (g.positions, g.triangles);
     let gamma = params.deform.gamma;
-    let (mut base, mut bulge) = blend(pre, positions, regions);
-    let (mut h, mut root) = balance(pre, g, &base, &bulge)?;
-    let mut out = displaced(&base, &bulge, gamma * h);
-    let mut scaled = vec![false; positions.len()];
-    let mut lowered = vec![false; positions.len()];
-    let turn_guard = g
+    let turn = g
         .turn_reference
         .filter(|_| params.turn_guard)
         .map(|reference| GuardInput {
-            triangles,
+            triangles: g.triangles,
             faces: &pre.guarded_faces,
-            input: positions,
+            input: g.positions,
             reference,
         });
-    // Check, scale, solve the volume again, until the checks find nothing (or the cap).
-    let mut settled = false;
-    // The last blend whose volume solve found an exact root and that turned no face over
-    // (past 90°, the metric's criterion), with the counts of vertices scaled back until then,
-    // for a loop cut at the cap.
-    let mut untouched = None;
-    let count = |flags: &[bool]| flags.iter().filter(|&&s| s).count();
-    for _ in 0..GUARD_SOLVES {
-        let turn = turn_guard
-            .as_ref()
-            .and_then(|guard| displacement_scales(guard, &out));
-        let lower = if params.bulge_guard {
-            lowered_bulge(
-                parts,
-                pre.rest_edge,
-                triangles,
-                &base,
-                &bulge,
-                gamma * h,
-                &out,
-            )?
-        } else {
-            None
-        };
-        if turn.is_none() && lower.is_none() {
-            settled = true;
-            break;
-        }
-        let exact = root.is_none_or(|k| k == RootKind::Exact);
-        if exact && turn_guard.as_ref().is_some_and(|g| !turns_over(g, &out)) {
-            untouched = Some((
-                out.clone(),
-                bulge.clone(),
-                h,
-                root,
-                [count(&scaled), count(&lowered)],
-            ));
-        }
-        for (v, &s) in turn.iter().flatten().enumerate().filter(|(_, &s)| s < 1.0) {
-            base[v] = positions[v] + (base[v] - positions[v]) * s;
-            bulge[v] *= s;
-            scaled[v] = true;
-        }
-        for (v, &s) in lower.iter().flatten().enumerate().filter(|(_, &s)| s < 1.0) {
-            bulge[v] *= s;
-            lowered[v] = true;
-        }
-        (h, root) = balance(pre, g, &base, &bulge)?;
-        out = displaced(&base, &bulge, gamma * h);
+    let guards = Guards {
+        pre,
+        g,
+        gamma,
+        bulge_guard: params.bulge_guard,
+        parts,
+        turn: turn.as_ref(),
+    };
+    let (base, bulge) = blend(pre, g.positions, regions);
+    let Settled {
+        mut state,
+        guarded: [guarded, bulge_guarded],
+        turned_over,
+    } = guards.settle(guards.balanced(base, bulge)?)?;
+    let steepness = steepness(regions, highest_bulges(pre, &state.bulge), gamma * state.h);
+    let unbalanced = refusal(g, gamma, &state, steepness, turned_over);
+    if unbalanced.is_some() {
+        state.out.copy_from_slice(g.positions);
     }
-    // The cap cut the loop and its last volume solve turned a face over: back to the last
-    // blend that turned none, else the fold is refused (see `GUARD_SOLVES`).
-    let mut turned_over = false;
-    let mut guarded = [count(&scaled), count(&lowered)];
-    if !settled && turn_guard.as_ref().is_some_and(|g| turns_over(g, &out)) {
-        match untouched {
-            Some(last) => (out, bulge, h, root, guarded) = last,
-            None => turned_over = true,
-        }
-    }
-    let [guarded, bulge_guarded] = guarded;
+    Ok(Blended {
+        positions: state.out,
+        h: state.h,
+        root: state.root,
+        steepness,
+        unbalanced,
+        guarded,
+        bulge_guarded,
+    })
+}
+
+/// Why the fold is refused ([`FoldOutput::unbalanced`]), if it is: no volume root and the
+/// volume off by more than [`UNBALANCED_VOLUME`] (with `γ ≠ 0`), a bulge steeper than
+/// [`STEEPEST_BULGE`], or a face turned over when the guards' loop was cut.
+fn refusal(
+    g: &FoldInput,
+    gamma: f64,
+    state: &Balance,
+    steepness: f64,
+    turned_over: bool,
+) -> Option<Unbalanced> {
     let no_root = gamma != 0.0
-        && root.is_some_and(|k| k != RootKind::Exact)
+        && !state.exact()
         && crate::report::metrics::volume_error(
-            crate::mesh::signed_volume(positions, triangles),
-            crate::mesh::signed_volume(&out, triangles),
+            crate::mesh::signed_volume(g.positions, g.triangles),
+            crate::mesh::signed_volume(&state.out, g.triangles),
         ) > UNBALANCED_VOLUME;
-    let highest = highest_bulges(pre, &bulge);
-    let steepness = steepness(regions, highest, gamma * h);
-    let unbalanced = if no_root {
+    if no_root {
         Some(Unbalanced::NoVolumeRoot)
     } else if steepness > STEEPEST_BULGE {
         Some(Unbalanced::SteepBulge)
@@ -119,19 +90,144 @@ pub(super) fn blend_and_balance(
         Some(Unbalanced::TurnedFace)
     } else {
         None
-    };
-    if unbalanced.is_some() {
-        out.copy_from_slice(positions);
     }
-    Ok(Blended {
-        positions: out,
-        h,
-        root,
-        steepness,
-        unbalanced,
-        guarded,
-        bulge_guarded,
-    })
+}
+
+/// One blend with its volume solved: `P`, `Q` (as the guards scaled them), `h_v` and its
+/// root (`None` for an open body), and `p' = P + γ h_v Q`.
+#[derive(Clone)]
+struct Balance {
+    base: Vec<Point3<f64>>,
+    bulge: Vec<Vector3<f64>>,
+    h: f64,
+    root: Option<RootKind>,
+    out: Vec<Point3<f64>>,
+}
+
+impl Balance {
+    /// Whether the volume solve found an exact root (or had none to find: an open body).
+    fn exact(&self) -> bool {
+        self.root.is_none_or(|k| k == RootKind::Exact)
+    }
+}
+
+/// What the guards' loop leaves: the blend, how many vertices each guard scaled (turn guard,
+/// bulge guard), and whether its output turns a face over with no earlier blend to go back to.
+struct Settled {
+    state: Balance,
+    guarded: [usize; 2],
+    turned_over: bool,
+}
+
+/// The turn guard (when on, [`FoldParams::turn_guard`]) and the bulge guard (when on,
+/// [`FoldParams::bulge_guard`]) of one fold, and the volume solve they alternate with.
+struct Guards<'a> {
+    pre: &'a FoldPre,
+    g: &'a FoldInput<'a>,
+    gamma: f64,
+    bulge_guard: bool,
+    parts: [&'a MeshIndex; 2],
+    turn: Option<&'a GuardInput<'a>>,
+}
+
+impl Guards<'_> {
+    /// `P` and `Q` with the volume solved on them.
+    fn balanced(
+        &self,
+        base: Vec<Point3<f64>>,
+        bulge: Vec<Vector3<f64>>,
+    ) -> Result<Balance, FoldError> {
+        let (h, root) = balance(self.pre, self.g, &base, &bulge)?;
+        let out = displaced(&base, &bulge, self.gamma * h);
+        Ok(Balance {
+            base,
+            bulge,
+            h,
+            root,
+            out,
+        })
+    }
+
+    /// Check, scale, solve the volume again, until the checks find nothing or
+    /// [`GUARD_SOLVES`] solves were made. When the cap cut the loop and its last solve turned
+    /// a face over (past 90°, the metric's criterion), back to the last blend with an exact
+    /// root that turned none, else [`Settled::turned_over`] (see [`GUARD_SOLVES`]).
+    fn settle(&self, mut state: Balance) -> Result<Settled, FoldError> {
+        let n = state.out.len();
+        let (mut scaled, mut lowered) = (vec![false; n], vec![false; n]);
+        let count = |flags: &[bool]| flags.iter().filter(|&&s| s).count();
+        let mut untouched = None;
+        for _ in 0..GUARD_SOLVES {
+            let [turn, lower] = self.scales(&state)?;
+            if turn.is_none() && lower.is_none() {
+                let guarded = [count(&scaled), count(&lowered)];
+                return Ok(Settled {
+                    state,
+                    guarded,
+                    turned_over: false,
+                });
+            }
+            if state.exact() && self.turn.is_some_and(|t| !turns_over(t, &state.out)) {
+                untouched = Some((state.clone(), [count(&scaled), count(&lowered)]));
+            }
+            let Balance {
+                mut base,
+                mut bulge,
+                ..
+            } = state;
+            let input = self.g.positions;
+            for (v, &s) in turn.iter().flatten().enumerate().filter(|(_, &s)| s < 1.0) {
+                base[v] = input[v] + (base[v] - input[v]) * s;
+                bulge[v] *= s;
+                scaled[v] = true;
+            }
+            for (v, &s) in lower.iter().flatten().enumerate().filter(|(_, &s)| s < 1.0) {
+                bulge[v] *= s;
+                lowered[v] = true;
+            }
+            state = self.balanced(base, bulge)?;
+        }
+        let guarded = [count(&scaled), count(&lowered)];
+        if !self.turn.is_some_and(|t| turns_over(t, &state.out)) {
+            return Ok(Settled {
+                state,
+                guarded,
+                turned_over: false,
+            });
+        }
+        Ok(match untouched {
+            Some((state, guarded)) => Settled {
+                state,
+                guarded,
+                turned_over: false,
+            },
+            None => Settled {
+                state,
+                guarded,
+                turned_over: true,
+            },
+        })
+    }
+
+    /// The turn guard's and the bulge guard's scales of `state` (`None` where a guard is off
+    /// or finds nothing).
+    fn scales(&self, state: &Balance) -> Result<[Option<Vec<f64>>; 2], FoldError> {
+        let turn = self.turn.and_then(|t| displacement_scales(t, &state.out));
+        let lower = if self.bulge_guard {
+            lowered_bulge(
+                self.parts,
+                self.pre.rest_edge,
+                self.g.triangles,
+                &state.base,
+                &state.bulge,
+                self.gamma * state.h,
+                &state.out,
+            )?
+        } else {
+            None
+        };
+        Ok([turn, lower])
+    }
 }
 
 /// The bulge guard's scales ([`crate::selfcontact::bulge_guard`]) for the bulge `bulge` times `scale`
