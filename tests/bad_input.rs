@@ -739,6 +739,43 @@ fn morph_targets_are_applied_and_checked() {
     expect_err(&d, "POSITION of meshes[0].primitives[0].targets[0]");
 }
 
+/// A skin that mirrors its body (its root joint scaled by -1) mirrors the morphed normals
+/// with it: the mirrored rig's posed normals are the mirror images of the plain rig's where a
+/// target turns them. Found by review: the bind normals were negated at load but not the
+/// targets' normal displacements, so a displaced normal came out turned away from both
+/// (`[-0.09, 0.70, 0.70]` for `[-1, 0, 0]`).
+#[test]
+fn a_mirrored_body_mirrors_its_morphed_normals() {
+    use contact_skin::frames::{self, Precomputed};
+    use contact_skin::skinning::Method;
+    use nalgebra::Vector3;
+    // The positions (0, 0, 0), (1, 0, 0), (0, 1, 0) as normal displacements at weight 1:
+    // vertex 1's normal (0, 0, 1) turns 45° toward +x, vertex 2's toward +y.
+    let mut plain = fixed_doc();
+    plain["meshes"][0]["primitives"][0]["targets"] = json!([{"NORMAL": 0}]);
+    plain["meshes"][0]["weights"] = json!([1.0]);
+    let mut mirrored = plain.clone();
+    mirrored["nodes"][1]["scale"] = json!([-1, 1, 1]);
+    let posed = |d: &Value| {
+        let rig = load_json(d).expect("a valid rig");
+        let pre = Precomputed::new(&rig, Method::Lbs);
+        frames::evaluate(&rig, &pre, None, 0, 0.0).bodies[0]
+            .normals
+            .clone()
+    };
+    let (normals, images) = (posed(&plain), posed(&mirrored));
+    let h = std::f64::consts::FRAC_1_SQRT_2;
+    assert!(
+        (normals[1] - Vector3::new(h, 0.0, h)).norm() < 1e-6,
+        "{}",
+        normals[1]
+    );
+    for (v, (n, m)) in normals.iter().zip(&images).enumerate() {
+        let image = Vector3::new(-n.x, n.y, n.z);
+        assert!((m - image).norm() < 1e-12, "vertex {v}: {m} for {image}");
+    }
+}
+
 /// An animation's `weights` channel: one value per target and key, else an error; on a node
 /// without morph targets it is ignored with a warning.
 #[test]
@@ -787,6 +824,24 @@ fn morph_weight_channels_are_checked() {
         .remove("weights");
     let rig = load_json(&none).expect("an ignored channel");
     assert_warned(&rig, "without morph targets");
+    // A first primitive of points (ignored, without targets) does not set the channel's
+    // width: the triangles' target is driven (found by review: the channel was dropped).
+    let mut points_first = d.clone();
+    let triangles = points_first["meshes"][0]["primitives"][0].clone();
+    let points = json!({"attributes": {"POSITION": 0}, "mode": 0});
+    points_first["meshes"][0]["primitives"] = json!([points, triangles]);
+    let rig = load_json(&points_first).expect("a points primitive first");
+    assert!(
+        !rig.warnings
+            .iter()
+            .any(|w| w.contains("without morph targets")),
+        "{:?}",
+        rig.warnings
+    );
+    assert_eq!(
+        rig.pose_at(Some(0), 0.25).morph_weights_of(0),
+        Some(&[0.25][..])
+    );
 }
 
 /// Many morph targets reading one dense accessor: past `MAX_MORPH_DISPLACEMENTS` stored
@@ -816,6 +871,47 @@ fn morph_targets_sharing_an_accessor_are_bounded() {
     // A few such targets load (default weights 0: the bind shape).
     let rig = rig::load_from_bytes(Path::new("test.glb"), &edited(3)).expect("three targets");
     assert_eq!(rig.bodies[0].morphs.len(), 3);
+}
+
+/// The bound holds for the file, not for each body: two nodes instancing one mesh read its
+/// targets twice, and used to get the bound each (a 1.6 MB file of 8 such nodes took 4.3 GB
+/// to load, found by review); a body under the bound alone loads.
+#[test]
+fn morph_displacements_are_bounded_per_file() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("rigs/bending_capsule.glb");
+    let bytes = std::fs::read(&path).expect("committed rig");
+    let n = rig::load(&path).expect("loads").bodies[0].vertex_count();
+    // Positions only, nearly all non-zero: 0.6 of the bound per body.
+    let count = 6 * contact_skin::rig::MAX_MORPH_DISPLACEMENTS / (10 * n);
+    let edited = |instances: usize| {
+        glb::with_json(&bytes, |json| {
+            let position = json["meshes"][0]["primitives"][0]["attributes"]["POSITION"].clone();
+            let targets = vec![json!({ "POSITION": position }); count];
+            json["meshes"][0]["primitives"][0]["targets"] = Value::Array(targets);
+            let body = json["nodes"]
+                .as_array()
+                .and_then(|nodes| nodes.iter().position(|node| node.get("mesh").is_some()))
+                .expect("the capsule's node");
+            for _ in 1..instances {
+                let copy = json["nodes"][body].clone();
+                let nodes = json["nodes"].as_array_mut().expect("nodes");
+                nodes.push(copy);
+                let added = nodes.len() - 1;
+                let roots = json["scenes"][0]["nodes"].as_array_mut().expect("roots");
+                roots.push(json!(added));
+            }
+        })
+    };
+    let one = rig::load_from_bytes(Path::new("test.glb"), &edited(1)).expect("one instance");
+    assert_eq!(one.bodies.len(), 1);
+    assert_eq!(one.bodies[0].morphs.len(), count);
+    drop(one);
+    let two = rig::load_from_bytes(Path::new("test.glb"), &edited(2));
+    let message = two.expect_err("two instances").to_string();
+    assert!(
+        message.contains("the file's morph targets hold more than"),
+        "{message}"
+    );
 }
 
 /// Required extensions (glTF 2.0 §3.12): those that only change rendering, and

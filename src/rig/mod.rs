@@ -17,7 +17,7 @@ mod weights;
 pub use animation::{Animation, Channel, Interpolation, Property};
 pub use error::RigError;
 pub(crate) use load::{confined_path, read_whole, Confinement, Unreadable};
-pub use load::{load, load_from_bytes, MAX_MORPH_DISPLACEMENTS};
+pub use load::{load, load_from_bytes, MAX_MORPH_DISPLACEMENTS, MAX_MORPH_READS};
 pub use morph::{MorphTarget, MorphedShape, Morphs};
 pub use skeleton::{LocalTransform, Node, Pose, Trs};
 pub use weights::SkinWeights;
@@ -97,6 +97,22 @@ impl Body {
         let weights = weights.unwrap_or(&self.morphs.default_weights);
         self.morphs
             .apply(weights, &self.positions, &self.normals, &self.triangles)
+    }
+
+    /// Negates the bind normals and, with them, every morph target's normal displacements:
+    /// the morphed normal `normalize(-n - Σ w Δn)` is then the negated file's
+    /// `normalize(n + Σ w Δn)` (glTF 2.0 §3.7.2.2 adds the displacements to the file's
+    /// normal), where negating the bind normals alone would turn a displaced normal away from
+    /// both.
+    pub(crate) fn negate_normals(&mut self) {
+        for n in &mut self.normals {
+            *n = -*n;
+        }
+        for target in &mut self.morphs.targets {
+            for (_, d) in &mut target.normals {
+                *d = -*d;
+            }
+        }
     }
 }
 

@@ -6,7 +6,8 @@
 //! on its armature) poses the file's outward winding inside out: the passes then saw no
 //! interpenetration at all, or deformed the wrong way (found on the committed scenes under a
 //! root scaled by `[-1, 1, 1]`: the capsule's 23 frames with a fold became none). Such a body's
-//! triangles are reversed and its bind normals negated once, at load, so that it faces out
+//! triangles are reversed and its bind normals (and its morph targets' normal displacements)
+//! negated once, at load, so that it faces out
 //! when posed (the cofactor that carries normals to the pose turns them with the winding).
 //! The glTF rule that the determinant of the *node's* transform decides the winding does not
 //! apply to a skinned mesh, whose node transform is ignored: the skin's matrices decide here.
@@ -46,9 +47,7 @@ pub(super) fn face_outward(rig: &mut Rig, rest: &Pose) {
         for t in &mut body.triangles {
             t.swap(1, 2);
         }
-        for n in &mut body.normals {
-            *n = -*n;
-        }
+        body.negate_normals();
         rig.warnings.push(format!(
             "body '{}' (meshes[{}]): its skin mirrors it at rest (negative determinant){mixed}: \
              its triangles' winding and normals reversed, so that it faces out",
@@ -84,9 +83,7 @@ pub(super) fn wind_outward(rig: &mut Rig, rest: &Pose) {
             .sum();
         let inward_normals = agreement > 0.0;
         if inward_normals {
-            for n in &mut body.normals {
-                *n = -*n;
-            }
+            body.negate_normals();
         }
         let normals = if inward_normals {
             "its triangles' winding and normals reversed"

@@ -69,10 +69,15 @@ fn replace_zero_rotations(channel: &mut Channel, rest: [f64; 4]) -> usize {
     zeros
 }
 
-/// The number of morph targets of `node`'s mesh (its first primitive's: glTF requires as
-/// many on every primitive), 0 without a mesh.
+/// The number of morph targets of `node`'s body: its mesh's first triangle primitive's (glTF
+/// requires as many on every primitive; the body is made of its triangle primitives, which
+/// [`super::morphs::merge_targets`] holds to one count), 0 without one. A first primitive of
+/// points or lines, ignored, no longer sets the count (found by review: its count, differing
+/// from the triangles', dropped the weights channel with a warning).
 fn morph_target_count(node: &gltf::Node) -> usize {
-    (node.mesh().and_then(|m| m.primitives().next())).map_or(0, |p| p.morph_targets().count())
+    let mesh = node.mesh();
+    let first = mesh.and_then(|m| m.primitives().find(super::bodies::is_triangles));
+    first.map_or(0, |p| p.morph_targets().count())
 }
 
 /// A channel driving `property`, whose values have `width` components (a weights channel's

@@ -2,7 +2,7 @@
 //! triangles, custom attributes.
 
 use super::invalid;
-use super::morphs::{merge_targets, read_primitive_targets};
+use super::morphs::{merge_targets, MorphReader};
 use crate::rig::accessor::{self, Source};
 use crate::rig::weights::{normalize_row, SkinWeights};
 use crate::rig::{Body, MorphTarget, Morphs, PrimitiveRange, RigError, Skin};
@@ -24,6 +24,7 @@ pub(super) fn read_bodies(
 ) -> Result<(Vec<Body>, Vec<Extras>), RigError> {
     let mut bodies = Vec::new();
     let mut extras = Vec::new();
+    let mut morphs = MorphReader::default();
     for rigid in [false, true] {
         for node in doc.nodes() {
             let Some(mesh) = node.mesh() else { continue };
@@ -33,7 +34,13 @@ pub(super) fn read_bodies(
                 _ => continue,
             };
             let skin = own.as_ref().unwrap_or_else(|| &skins[index]);
-            let read = read_body(src, doc, &node, &mesh, (index, skin), rigid, warnings)?;
+            let at = BodyAt {
+                node: &node,
+                mesh: &mesh,
+                skin: (index, skin),
+                rigid,
+            };
+            let read = read_body(src, doc, &at, &mut morphs, warnings)?;
             let Some((mut body, extra)) = read else {
                 continue;
             };
@@ -65,18 +72,31 @@ fn rigid_skin(node: &gltf::Node) -> Skin {
     }
 }
 
-/// One body: the triangle primitives of `mesh` instanced by `node`, skinned by `skin` (its
-/// index and itself; `rigid`: every vertex on its one joint), with its custom attributes.
-/// `None` (with a warning) when the mesh has no triangle primitive.
+/// A mesh instance to read as a body: `mesh` instanced by `node`, skinned by `skin` (its index
+/// and itself; `rigid`: every vertex on its one joint).
+struct BodyAt<'a> {
+    node: &'a gltf::Node<'a>,
+    mesh: &'a gltf::Mesh<'a>,
+    skin: (usize, &'a Skin),
+    rigid: bool,
+}
+
+/// One body: the triangle primitives of `at`'s mesh, with its custom attributes and its morph
+/// targets (read by the file's `morphs`). `None` (with a warning) when the mesh has no
+/// triangle primitive.
 fn read_body(
     src: &Source,
     doc: &gltf::Document,
-    node: &gltf::Node,
-    mesh: &gltf::Mesh,
-    (skin_index, skin): (usize, &Skin),
-    rigid: bool,
+    at: &BodyAt,
+    morphs: &mut MorphReader,
     warnings: &mut Vec<String>,
 ) -> Result<Option<(Body, Extras)>, RigError> {
+    let BodyAt {
+        node,
+        mesh,
+        skin: (skin_index, skin),
+        rigid,
+    } = *at;
     let name = node.name().or(mesh.name()).unwrap_or_default().to_string();
     let mut body = Body {
         name,
@@ -99,9 +119,8 @@ fn read_body(
             mesh: mesh.index(),
             skin,
             rigid,
-            displacements: targets.iter().flatten().map(MorphTarget::len).sum(),
         };
-        let read = read_primitive(src, doc, &prim, &at, &mut body, warnings)?;
+        let read = read_primitive(src, doc, &prim, &at, (&mut body, &mut *morphs), warnings)?;
         has_normals &= read.has_normals;
         primitive_extras.extend(read.extras);
         targets.extend(read.targets);
@@ -201,27 +220,21 @@ struct PrimitiveAt<'a> {
     mesh: usize,
     skin: &'a Skin,
     rigid: bool,
-    /// Morph target displacements the body's earlier primitives hold.
-    displacements: usize,
 }
 
-/// Appends one primitive to `body`.
+/// Appends one primitive to `body` (its morph targets read by the file's `morphs`).
 fn read_primitive(
     src: &Source,
     doc: &gltf::Document,
     prim: &gltf::Primitive,
     place: &PrimitiveAt,
-    body: &mut Body,
+    (body, morphs): (&mut Body, &mut MorphReader),
     warnings: &mut Vec<String>,
 ) -> Result<PrimitiveRead, RigError> {
-    use gltf::mesh::Mode;
     let mesh = place.mesh;
     let at = format!("meshes[{mesh}].primitives[{}]", prim.index());
     let mode = prim.mode();
-    if !matches!(
-        mode,
-        Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
-    ) {
+    if !is_triangles(prim) {
         warnings.push(format!("{at}: mode {mode:?} is not triangles: ignored"));
         return Ok(PrimitiveRead {
             has_normals: true,
@@ -239,7 +252,7 @@ fn read_primitive(
     };
     let extras = read_extras(src, doc, prim, &at, n, warnings)?;
     let first = body.positions.len();
-    let targets = read_primitive_targets(src, doc, prim, (&at, place.displacements), n, first)?;
+    let targets = morphs.primitive_targets(src, doc, prim, &at, (n, first))?;
     let indices = match prim.indices() {
         Some(acc) => {
             accessor::read_indices(
@@ -284,6 +297,16 @@ fn read_primitive(
         extras: Some(extras),
         targets: Some(targets),
     })
+}
+
+/// Whether `prim` draws triangles (a list, strip or fan): the primitives a body is made of,
+/// the others (points, lines) ignored with a warning.
+pub(super) fn is_triangles(prim: &gltf::Primitive) -> bool {
+    use gltf::mesh::Mode;
+    matches!(
+        prim.mode(),
+        Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+    )
 }
 
 /// POSITION of a primitive: finite, and the body (holding `before` vertices) stays within

@@ -18,7 +18,7 @@ pub(super) use bodies::area_weighted_normals;
 use bodies::read_bodies;
 use buffers::resolve_buffers;
 pub(crate) use buffers::{confined_path, Confinement};
-pub use morphs::MAX_MORPH_DISPLACEMENTS;
+pub use morphs::{MAX_MORPH_DISPLACEMENTS, MAX_MORPH_READS};
 use nodes::read_nodes;
 use skins::read_skins;
 
