@@ -320,6 +320,50 @@ fn the_baker_refuses_frames_that_do_not_fit_the_rig() {
     assert!(glb::bake(&rig, &[frame], "test").is_ok());
 }
 
+/// A baked glb's weights animation grows with its frames, not with their square: its output
+/// (key `k` weighs target `k - 1` by 1, the others by 0) is a sparse accessor of one value
+/// per key after the first (dense, 2 000 frames of an 8-vertex rig made 17 MB, found by
+/// review); past `MAX_BAKED_FRAMES` keys, which 32-bit sparse indices cannot index, the baker
+/// refuses with a typed error instead of writing a file.
+#[test]
+fn a_baked_weights_animation_grows_with_its_frames() {
+    use contact_skin::output::glb::{bake, BakeError, MAX_BAKED_FRAMES};
+    let Some(path) = present_sample("SimpleSkin/SimpleSkin.gltf") else {
+        return;
+    };
+    let rig = rig::load(&path).expect("load");
+    let pre = Precomputed::new(&rig, Method::Lbs);
+    let frame = frames::evaluate(&rig, &pre, Some(0), 0, 0.0);
+    let at = |count: usize| -> Vec<frames::Frame> {
+        (0..count)
+            .map(|k| frames::Frame {
+                index: k,
+                time: k as f64,
+                ..frame.clone()
+            })
+            .collect()
+    };
+    let keys = 300;
+    let bytes = bake(&rig, &at(keys), "test").expect("baked");
+    let json = glb::json(&bytes);
+    let sampler = &json["animations"][0]["samplers"][0];
+    let output = &json["accessors"][sampler["output"].as_u64().expect("output") as usize];
+    assert_eq!(output["count"], keys * (keys - 1));
+    assert!(output.get("bufferView").is_none(), "{output}");
+    assert_eq!(output["sparse"]["count"], keys - 1);
+    // Bytes: per key, a target's displacements and JSON (its accessor and view, about 300
+    // bytes); dense weights would add 4 (keys - 1) bytes per key.
+    let vertices: usize = rig.bodies.iter().map(|b| b.vertex_count()).sum();
+    let linear = keys * (12 * vertices + 512) + 4096;
+    assert!(
+        bytes.len() < linear,
+        "{} bytes, {linear} at most",
+        bytes.len()
+    );
+    let e = bake(&rig, &at(MAX_BAKED_FRAMES + 1), "test").expect_err("refused");
+    assert!(matches!(e, BakeError::TooManyFrames { .. }), "{e}");
+}
+
 /// A rig without animation (the WebXR hand) baked with `--frames 5`: the five frames are one
 /// pose at one time, and a glTF animation needs increasing key times (the Khronos validator
 /// rejected the file). The glb holds that one pose without animation, and `pose` says so.

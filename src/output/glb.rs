@@ -4,7 +4,7 @@
 //! frame is a morph target holding its displacement from the base, and a `weights` animation
 //! switches from one target to the next (LINEAR, so a viewer interpolates between frames).
 
-use super::glb_builder::{GlbBuilder, Target};
+use super::glb_builder::{GlbBuilder, GlbError, Target};
 use crate::frames::Frame;
 use crate::rig::Rig;
 use gltf_json as json;
@@ -49,10 +49,21 @@ pub enum BakeError {
     /// A key time or morph delta that 32-bit floats cannot hold ([`check_bakeable`]).
     #[error("{0}")]
     Unrepresentable(String),
-    /// The glTF document could not be serialized.
-    #[error("glTF serialization: {0}")]
-    Json(#[from] json::Error),
+    /// The frames to key are more than a weights animation can index (its output's
+    /// `frames × (frames - 1)` elements by 32-bit sparse indices).
+    #[error("{frames} frames to key: a baked glb keys at most {MAX_BAKED_FRAMES}")]
+    TooManyFrames {
+        /// The frames to key.
+        frames: usize,
+    },
+    /// The glb could not be built (serialization, or a file of 4 GiB or more).
+    #[error("{0}")]
+    Glb(#[from] GlbError),
 }
+
+/// Most frames a baked glb keys: its weights animation's output holds `frames × (frames - 1)`
+/// elements, indexed by 32-bit sparse indices (viewers expand it dense: at this size 16 GiB).
+pub const MAX_BAKED_FRAMES: usize = 65_536;
 
 /// Builds the glb bytes of a sequence of frames (at least one, each with the rig's bodies and
 /// vertex counts); only those at its [`key_times`] are baked. Anything else is a
@@ -62,6 +73,11 @@ pub fn bake(rig: &Rig, frames: &[Frame], name: &str) -> Result<Vec<u8>, BakeErro
     check_bakeable(frames).map_err(BakeError::Unrepresentable)?;
     let times: Vec<f64> = frames.iter().map(|f| f.time).collect();
     let keyed: Vec<&Frame> = key_times(&times).into_iter().map(|k| &frames[k]).collect();
+    if keyed.len() > MAX_BAKED_FRAMES {
+        return Err(BakeError::TooManyFrames {
+            frames: keyed.len(),
+        });
+    }
     let frames = keyed.as_slice();
     let mut b = GlbBuilder::new();
     let mut nodes = Vec::new();
@@ -223,14 +239,14 @@ fn push_weights_animation(
     let t0 = frames[0].time;
     let times: Vec<[f32; 1]> = frames.iter().map(|f| [(f.time - t0) as f32]).collect();
     let targets = frames.len() - 1;
-    let mut weights: Vec<[f32; 1]> = Vec::with_capacity(frames.len() * targets);
-    for k in 0..frames.len() {
-        for j in 0..targets {
-            weights.push([if k >= 1 && j == k - 1 { 1.0 } else { 0.0 }]);
-        }
-    }
+    // Key k weighs target k - 1 (frame k) by 1 and the others by 0: one non-zero per key
+    // from the second on, stored sparse (the dense output holds `frames × targets` values:
+    // 16 MB at 2 000 frames).
+    let ones: Vec<(u32, f32)> = (1..frames.len())
+        .map(|k| ((k * targets + k - 1) as u32, 1.0))
+        .collect();
     let input = b.push_f32(&times, Target::None, true);
-    let output = b.push_f32(&weights, Target::None, false);
+    let output = b.push_sparse_scalar(frames.len() * targets, &ones);
     let sampler = json::animation::Sampler {
         extensions: None,
         extras: Default::default(),

@@ -5,6 +5,20 @@
 use gltf_json as json;
 use json::validation::{Checked::Valid, USize64};
 
+/// Why [`GlbBuilder::finish`] failed.
+#[derive(Debug, thiserror::Error)]
+pub enum GlbError {
+    /// The document could not be serialized.
+    #[error("glTF serialization: {0}")]
+    Json(#[from] json::Error),
+    /// The file would not fit the GLB's 32-bit lengths.
+    #[error("{bytes} bytes: a GLB holds less than 4 GiB (its lengths are 32-bit)")]
+    TooLarge {
+        /// The size the file would have.
+        bytes: usize,
+    },
+}
+
 /// Accumulates a glTF document and its single binary buffer.
 pub struct GlbBuilder {
     /// The document being built; push nodes, meshes, skins, animations into it directly.
@@ -152,6 +166,60 @@ impl GlbBuilder {
         )
     }
 
+    /// Appends a SCALAR `f32` accessor of `count` elements, zero but for `values`
+    /// (`(element, value)`, by increasing element): a sparse accessor without a buffer view
+    /// (glTF 2.0 §3.6.2.3), whose bytes grow with `values` only; a dense one when `values` is
+    /// empty (a sparse accessor holds at least one value).
+    pub fn push_sparse_scalar(
+        &mut self,
+        count: usize,
+        values: &[(u32, f32)],
+    ) -> json::Index<json::Accessor> {
+        if values.is_empty() {
+            return self.push_f32(&vec![[0.0f32]; count], Target::None, false);
+        }
+        let indices: Vec<u8> = values.iter().flat_map(|(i, _)| i.to_le_bytes()).collect();
+        let data: Vec<u8> = values.iter().flat_map(|(_, v)| v.to_le_bytes()).collect();
+        let indices = self.view(&indices, Target::None, None);
+        let data = self.view(&data, Target::None, None);
+        let sparse = json::accessor::sparse::Sparse {
+            count: USize64::from(values.len()),
+            indices: json::accessor::sparse::Indices {
+                buffer_view: indices,
+                byte_offset: USize64(0),
+                component_type: Valid(json::accessor::IndexComponentType(
+                    json::accessor::ComponentType::U32,
+                )),
+                extensions: None,
+                extras: Default::default(),
+            },
+            values: json::accessor::sparse::Values {
+                buffer_view: data,
+                byte_offset: USize64(0),
+                extensions: None,
+                extras: Default::default(),
+            },
+            extensions: None,
+            extras: Default::default(),
+        };
+        self.root.push(json::Accessor {
+            buffer_view: None,
+            byte_offset: None,
+            count: USize64::from(count),
+            component_type: Valid(json::accessor::GenericComponentType(
+                json::accessor::ComponentType::F32,
+            )),
+            extensions: None,
+            extras: Default::default(),
+            type_: Valid(json::accessor::Type::Scalar),
+            min: None,
+            max: None,
+            name: None,
+            normalized: false,
+            sparse: Some(sparse),
+        })
+    }
+
     /// Appends triangle indices as `u32`.
     pub fn push_indices(&mut self, triangles: &[[u32; 3]]) -> json::Index<json::Accessor> {
         let bytes: Vec<u8> = triangles
@@ -188,8 +256,10 @@ impl GlbBuilder {
         )
     }
 
-    /// Packs the document and the binary buffer into GLB bytes.
-    pub fn finish(mut self) -> Result<Vec<u8>, json::Error> {
+    /// Packs the document and the binary buffer into GLB bytes; a file the GLB's 32-bit
+    /// lengths cannot describe (4 GiB and more, glTF 2.0 §4.4) is [`GlbError::TooLarge`]
+    /// rather than a header whose lengths wrapped.
+    pub fn finish(mut self) -> Result<Vec<u8>, GlbError> {
         while self.bin.len() % 4 != 0 {
             self.bin.push(0);
         }
@@ -208,6 +278,9 @@ impl GlbBuilder {
         }
         let has_bin = !self.bin.is_empty();
         let total = 12 + 8 + json_bytes.len() + if has_bin { 8 + self.bin.len() } else { 0 };
+        if u32::try_from(total).is_err() {
+            return Err(GlbError::TooLarge { bytes: total });
+        }
         let mut out = Vec::with_capacity(total);
         out.extend_from_slice(b"glTF");
         out.extend_from_slice(&2u32.to_le_bytes());

@@ -181,9 +181,9 @@ pub enum SceneError {
         #[source]
         source: std::io::Error,
     },
-    /// Serializing the glTF JSON failed.
-    #[error("cannot serialize the glTF document: {0}")]
-    Json(#[from] gltf_json::Error),
+    /// Serializing the glTF JSON failed, or the file would not fit a GLB.
+    #[error("cannot build the glb: {0}")]
+    Glb(#[from] crate::output::glb_builder::GlbError),
 }
 
 fn check_resolution(resolution: u32) -> Result<(), SceneError> {

@@ -8,7 +8,7 @@
 //! vertices are given in world space at rest, so the rest pose reproduces the mesh.
 
 use super::shapes::MeshData;
-use crate::output::glb_builder::{GlbBuilder, Target};
+use crate::output::glb_builder::{GlbBuilder, GlbError, Target};
 use gltf_json as json;
 use json::validation::Checked::Valid;
 use nalgebra::{Isometry3, Matrix4, Quaternion, Translation3, UnitQuaternion, Vector3};
@@ -172,7 +172,7 @@ fn matrix_f32(m: &Matrix4<f64>) -> [f32; 16] {
 }
 
 /// Builds the GLB bytes of `spec`.
-pub(crate) fn assemble(spec: &SceneSpec) -> Result<Vec<u8>, json::Error> {
+pub(crate) fn assemble(spec: &SceneSpec) -> Result<Vec<u8>, GlbError> {
     let mut b = GlbBuilder::new();
     let joint_node = |j: usize| json::Index::<json::Node>::new(1 + j as u32);
     let roots: Vec<_> = (0..spec.joints.len())
