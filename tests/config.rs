@@ -824,6 +824,49 @@ fn the_sweeps_are_a_count_and_a_bound() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// `[[self_contact.separated]]` names joints of the rig, each once, on one side, and each
+/// pair of sides once (in either order), else an error naming the file and the field (a
+/// repeated pair was resolved twice per frame and a missing joint reported without the file
+/// or field, found by review).
+#[test]
+fn separated_regions_are_checked_against_the_rig() {
+    let dir = mouth_dir("separated");
+    let table =
+        |sides: &str| format!("[self_contact]\n[[self_contact.separated]]\nsides = {sides}\n");
+    resolve_self(&dir, &table("[[\"head\"], [\"jaw\"]]")).expect("a valid pair");
+    let twice = format!(
+        "{}[[self_contact.separated]]\nsides = [[\"jaw\"], [\"head\"]]\n",
+        table("[[\"head\"], [\"jaw\"]]")
+    );
+    for (text, field, message) in [
+        (
+            table("[[\"head\"], [\"nope\"]]"),
+            "separated[0].sides[1]",
+            "no node is named \"nope\"",
+        ),
+        (
+            table("[[\"head\", \"head\"], [\"jaw\"]]"),
+            "separated[0].sides[0]",
+            "twice",
+        ),
+        (
+            table("[[\"head\"], [\"head\"]]"),
+            "separated[0].sides",
+            "on both sides",
+        ),
+        (twice, "separated[1].sides", "separated[0]"),
+    ] {
+        let e = resolve_self(&dir, &text).expect_err(&text);
+        let shown = e.to_string();
+        assert!(
+            shown.contains(field) && shown.contains(message),
+            "{text}: {shown}"
+        );
+        assert!(shown.contains("contact.toml"), "{shown}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// `turn_guard` is on by default and can be turned off.
 #[test]
 fn the_turn_guard_is_a_setting() {
@@ -1257,12 +1300,12 @@ fn an_unknown_pair_name_lists_the_derived_pairs() {
 #[test]
 fn separated_regions_are_read_and_checked() {
     let dir = mouth_dir("self-separated");
-    let text = "[[self_contact.separated]]\nsides = [[\"jaw\"], [\"head\", \"x\"]]\n";
+    let text = "[[self_contact.separated]]\nsides = [[\"jaw\"], [\"head\", \"rig\"]]\n";
     let cfg = write_config(&dir, text).expect("parses");
     let (rig, welded) = load_mouth(&dir);
     let settings = cfg.resolve_self_contact(&rig, &welded).expect("resolves");
     let jaw = vec!["jaw".to_owned()];
-    let head = vec!["head".to_owned(), "x".to_owned()];
+    let head = vec!["head".to_owned(), "rig".to_owned()];
     assert_eq!(settings.separated, vec![[jaw, head]]);
     // An empty side is named by its field; a table without `sides` does not parse.
     let empty = write_config(

@@ -362,6 +362,29 @@ fn a_baked_weights_animation_grows_with_its_frames() {
     );
     let e = bake(&rig, &at(MAX_BAKED_FRAMES + 1), "test").expect_err("refused");
     assert!(matches!(e, BakeError::TooManyFrames { .. }), "{e}");
+    // `pose` refuses before computing any frame (it computed and held them all first, found
+    // by review: a million frames of this rig ran out of memory without a typed error).
+    let out = tmp("too-many-keys");
+    let frames = (MAX_BAKED_FRAMES + 1).to_string();
+    let args = [
+        "pose",
+        s(&path),
+        "--out",
+        s(&out),
+        "--format",
+        "glb",
+        "--no-contact",
+    ];
+    let run = Command::new(env!("CARGO_BIN_EXE_contact-skin"))
+        .args(args)
+        .args(["--frames", &frames])
+        .output()
+        .expect("run contact-skin");
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    // The check before the frames (the baker's own says nothing of the remedy).
+    let early = stderr.contains("keys at most") && stderr.contains("use --format obj");
+    assert!(!run.status.success() && early, "{stderr}");
+    assert!(!out.join("SimpleSkin.baked.glb").exists());
 }
 
 /// A rig without animation (the WebXR hand) baked with `--frames 5`: the five frames are one

@@ -43,13 +43,26 @@ struct GenerateArgs {
     /// Output folder.
     #[arg(long, short, default_value = "rigs")]
     out: PathBuf,
-    /// Tessellation resolution (see rigs/README.md for the mapping).
-    #[arg(long, short, default_value_t = contact_skin::scenes::DEFAULT_RESOLUTION)]
+    /// Tessellation resolution, 1 to 64 (see rigs/README.md for the mapping).
+    #[arg(
+        long,
+        short,
+        default_value_t = contact_skin::scenes::DEFAULT_RESOLUTION,
+        value_parser = clap::value_parser!(u32).range(
+            contact_skin::scenes::MIN_RESOLUTION as i64..=contact_skin::scenes::MAX_RESOLUTION as i64
+        )
+    )]
     resolution: u32,
-    /// Only these scenes (default: all). Names: bending_capsule, finger, finger_long, mouth,
-    /// capsule_pair, fingertips_ball, sphere_plane.
-    #[arg(long = "scene")]
+    /// Only these scenes (default: all; repeat the flag for several).
+    #[arg(long = "scene", value_parser = scene_names())]
     scenes: Vec<String>,
+}
+
+/// The names `--scene` takes: every scene's ([`contact_skin::scenes::Scene::ALL`]), listed by
+/// `generate --help` (its list, written by hand, had missed `two_fingers`).
+fn scene_names() -> clap::builder::PossibleValuesParser {
+    use contact_skin::scenes::Scene;
+    clap::builder::PossibleValuesParser::new(Scene::ALL.map(Scene::name))
 }
 
 /// Creates an output folder (and its parents), naming it in the error (a file in the way

@@ -272,8 +272,9 @@ impl ContactConfig {
 }
 
 /// A direction that normalizes to a unit vector: finite, non-zero, and a finite non-zero
-/// length (`[1e308, 1e308, 1e308]` overflows it and normalized to zero, failing only mid-run;
-/// found by fuzzing).
+/// length computed plainly (`[1e308, 1e308, 1e308]` overflows it and normalized to zero,
+/// failing only mid-run, found by fuzzing; `[1e-200, 0, 0]` underflows it: both refused, as
+/// the passes normalize a direction without scaling it first).
 pub(super) fn usable_direction(d: &[f64; 3]) -> bool {
     let length = d.iter().map(|x| x * x).sum::<f64>().sqrt();
     d.iter().all(|x| x.is_finite()) && length.is_finite() && length > 0.0

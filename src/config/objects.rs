@@ -59,10 +59,10 @@ impl ContactConfig {
             ));
         }
         let sizes = rest_sizes(rig);
-        let mut params: Vec<ObjectParams> = sizes
-            .iter()
-            .map(|&d| object_params(&self.defaults, d))
-            .collect();
+        let mut params: Vec<ObjectParams> = Vec::with_capacity(sizes.len());
+        for &size in &sizes {
+            params.push(self.object_params(&self.defaults, size, "defaults")?);
+        }
         let mut seen: Vec<Option<usize>> = vec![None; rig.bodies.len()];
         for (i, o) in self.objects.iter().enumerate() {
             let at = format!("object[{i}]");
@@ -76,7 +76,7 @@ impl ContactConfig {
                 });
             }
             seen[b] = Some(i);
-            params[b] = object_params(&self.defaults.overlay(&o.params()), sizes[b]);
+            params[b] = self.object_params(&self.defaults.overlay(&o.params()), sizes[b], &at)?;
             params[b].contact = o.contact.unwrap_or(true);
             if let Some(map) = &o.bulge_map {
                 let field = format!("{at}.bulge_map");
@@ -112,6 +112,26 @@ impl ContactConfig {
             name: r.to_string(),
             available: list_bodies(rig),
         })
+    }
+
+    /// [`object_params`], its extent from `extent_factor` times a body's `rest_size` checked
+    /// finite and positive (1e308 times a body's size was an infinite extent, `null` in `info
+    /// --json`, where `[self_contact]` refuses it); `at`: the table, for the error.
+    fn object_params(
+        &self,
+        p: &ParamSpec,
+        rest_size: f64,
+        at: &str,
+    ) -> Result<ObjectParams, ConfigError> {
+        let params = object_params(p, rest_size);
+        match (p.extent, p.extent_factor, params.extent) {
+            (None, Some(_), Some(extent)) if !(extent.is_finite() && extent > 0.0) => Err(self
+                .invalid(
+                    format!("{at}.extent_factor"),
+                    format!("gives the extent {extent} (rest size {rest_size})"),
+                )),
+            _ => Ok(params),
+        }
     }
 
     fn pair_overrides(&self, rig: &Rig) -> Result<Vec<PairOverride>, ConfigError> {

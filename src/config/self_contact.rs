@@ -5,11 +5,13 @@
 use super::check::usable_direction;
 use super::{
     rest_sizes, ConfigError, ContactConfig, SelfContactSettings, SelfContactSpec, SelfDirection,
+    SeparatedSpec,
 };
 use crate::mesh::WeldedMesh;
 use crate::rig::Rig;
 use crate::selfcontact::fold::FoldParams;
 use crate::selfcontact::pass::{DEFAULT_FOLD_PASSES, DEFAULT_MAX_FOLD_PASSES};
+use crate::selfcontact::regions::node_name;
 use crate::selfcontact::{derive_pairs, DirectionSource, RegionOptions};
 use nalgebra::Vector3;
 
@@ -88,16 +90,7 @@ impl ContactConfig {
         let params = self.fold_params(&spec, rig, derived)?;
         let (passes, max_passes) = sweeps(&spec);
         let (directions, pair_params) = self.pair_settings(&spec, &params, derived)?;
-        for (j, sep) in spec.separated.iter().enumerate() {
-            for (k, side) in sep.sides.iter().enumerate() {
-                if side.is_empty() {
-                    return Err(self.invalid(
-                        format!("self_contact.separated[{j}].sides[{k}]"),
-                        "is empty",
-                    ));
-                }
-            }
-        }
+        self.check_separated(&spec.separated, rig)?;
         Ok(SelfContactSettings {
             enabled: self.self_contact_enabled(),
             regions: self.self_contact_regions(),
@@ -112,6 +105,46 @@ impl ContactConfig {
             separated: spec.separated.iter().map(|s| s.sides.clone()).collect(),
             separated_from_skeleton: spec.separated_from_skeleton.unwrap_or(true),
         })
+    }
+
+    /// `[[self_contact.separated]]`: each side names joints of the rig, none twice nor on both
+    /// sides, and no pair of sides is given twice (in either order): a repeated pair was
+    /// resolved twice per frame (found by review: the capsule's unbalanced folds 2 → 5), and a
+    /// missing name was reported without the file and the field.
+    fn check_separated(&self, separated: &[SeparatedSpec], rig: &Rig) -> Result<(), ConfigError> {
+        let mut seen: Vec<[Vec<&str>; 2]> = Vec::new();
+        for (j, sep) in separated.iter().enumerate() {
+            let at = format!("self_contact.separated[{j}].sides");
+            for (k, side) in sep.sides.iter().enumerate() {
+                let field = format!("{at}[{k}]");
+                if side.is_empty() {
+                    return Err(self.invalid(field, "is empty"));
+                }
+                for (i, name) in side.iter().enumerate() {
+                    if !(0..rig.nodes.len()).any(|n| node_name(rig, n) == *name) {
+                        return Err(self.invalid(field, format!("no node is named \"{name}\"")));
+                    }
+                    if side[..i].contains(name) {
+                        return Err(self.invalid(field, format!("names \"{name}\" twice")));
+                    }
+                }
+            }
+            let [a, b] = &sep.sides;
+            if let Some(name) = a.iter().find(|n| b.contains(n)) {
+                return Err(self.invalid(at, format!("\"{name}\" is on both sides")));
+            }
+            let key = sorted_sides(&sep.sides);
+            if let Some(first) = seen.iter().position(|k| *k == key) {
+                return Err(ConfigError::Duplicate {
+                    file: self.file.clone(),
+                    field: at,
+                    what: format!("separated regions {:?} / {:?}", key[0], key[1]),
+                    first: format!("self_contact.separated[{first}]"),
+                });
+            }
+            seen.push(key);
+        }
+        Ok(())
     }
 
     /// Every fold's parameters: the defaults with `[self_contact]`'s values; the extent from
@@ -246,8 +279,20 @@ fn list_pairs(derived: &[(usize, String)]) -> String {
     }
 }
 
-/// `d` normalized (scaled first, so that huge or tiny finite components work); `None` when
-/// zero or not finite.
+/// A pair of sides as a set of sets: each side's names sorted, the two sides in order.
+fn sorted_sides(sides: &[Vec<String>; 2]) -> [Vec<&str>; 2] {
+    let mut key = sides.each_ref().map(|side| {
+        let mut names: Vec<&str> = side.iter().map(String::as_str).collect();
+        names.sort_unstable();
+        names
+    });
+    key.sort();
+    key
+}
+
+/// `d` normalized; `None` when [`usable_direction`] refuses it (zero, not finite, or a length
+/// whose square overflows or underflows: `[1e200, 1e200, 0]` and `[1e-200, 0, 0]` are refused
+/// as for the contact pairs' directions, which are normalized without scaling later).
 pub(super) fn unit(d: &[f64; 3]) -> Option<Vector3<f64>> {
     if !usable_direction(d) {
         return None;

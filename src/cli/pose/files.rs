@@ -184,6 +184,16 @@ pub(super) fn write_glb(job: &Job, times: &[f64]) -> Result<Written, BoxError> {
         .map_or("rig".into(), |s| s.to_string_lossy().to_string());
     let path = a.out.join(format!("{stem}.baked.glb"));
     guard_input(&a.rig, &path)?;
+    // Before any frame is computed (and held: a baked glb keeps them all).
+    let keys = glb::key_times(times).len();
+    if keys > glb::MAX_BAKED_FRAMES {
+        let max = glb::MAX_BAKED_FRAMES;
+        return Err(format!(
+            "{keys} frames to key: a baked glb keys at most {max} (use --format obj, or fewer \
+             --frames; nothing written)"
+        )
+        .into());
+    }
     if a.diagnostics {
         guard_outputs(job, times)?;
     }
