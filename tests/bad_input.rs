@@ -424,6 +424,133 @@ fn buffer_uris_cannot_leave_the_folder() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// Only `buffers[0]` refers to a GLB's binary chunk (glTF 2.0 §4.4.3.3): a later buffer
+/// without a URI is refused, where it copied the whole chunk (found by review: 2 000 one-byte
+/// buffers in a 1 MB glb took 2 GB). Buffers naming one file share it (read once).
+#[test]
+fn only_the_first_buffer_is_the_glb_chunk() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("rigs/bending_capsule.glb");
+    let bytes = std::fs::read(&path).expect("committed rig");
+    let edited = glb::with_json(&bytes, |json| {
+        let buffers = json["buffers"].as_array_mut().expect("buffers");
+        buffers.push(json!({"byteLength": 1}));
+    });
+    match rig::load_from_bytes(Path::new("test.glb"), &edited) {
+        Err(RigError::Buffer {
+            buffer: 1, message, ..
+        }) => {
+            assert!(message.contains("only buffers[0]"), "{message}")
+        }
+        other => panic!("expected a buffer error, got {other:?}"),
+    }
+    // Two buffers naming one file: each view reads its own buffer's bytes.
+    let dir = std::env::temp_dir().join(format!("cs-shared-bin-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    std::fs::write(dir.join("rig.bin"), &Layout::valid().bytes).expect("write");
+    let mut d = fixed_doc();
+    d["buffers"][0]["uri"] = json!("rig.bin");
+    let second = d["buffers"][0].clone();
+    d["buffers"].as_array_mut().expect("buffers").push(second);
+    d["bufferViews"][0]["buffer"] = json!(1);
+    std::fs::write(dir.join("rig.gltf"), serde_json::to_vec(&d).expect("json")).expect("write");
+    let shared = rig::load(&dir.join("rig.gltf")).expect("two buffers, one file");
+    let single = load_json(&fixed_doc()).expect("the same rig");
+    assert_eq!(shared.bodies[0].positions, single.bodies[0].positions);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Accessor reads are bounded per file (`MAX_READ_COMPONENTS`): five skins naming one
+/// view-less accessor of 4M matrices read 5 × 64M values (found by review: 500 such skins took
+/// 55 s from 23 kB); one such skin loads.
+#[test]
+fn accessor_reads_are_bounded_per_file() {
+    let with_skins = |count: usize| {
+        let mut d = fixed_doc();
+        // View-less: zeros but for one sparse matrix (indices from view 4, values from 5).
+        let sparse = json!({"count": 1, "indices": {"bufferView": 4, "componentType": 5123},
+                            "values": {"bufferView": 5}});
+        let big = json!({"componentType": 5126, "count": 1 << 22, "type": "MAT4",
+                         "sparse": sparse});
+        d["accessors"].as_array_mut().expect("accessors").push(big);
+        let skin = json!({"joints": [1, 2], "inverseBindMatrices": 8});
+        d["skins"] = Value::Array(vec![skin; count]);
+        d
+    };
+    load_json(&with_skins(1)).expect("one skin reads its matrices once");
+    let e = load_json(&with_skins(5)).expect_err("five reads of 64M values");
+    assert!(e.to_string().contains("accessor reads exceed"), "{e}");
+}
+
+/// The vertices of a file's bodies are bounded (`MAX_FILE_VERTICES`), checked before a
+/// primitive is read: three primitives naming one view-less accessor of 4M positions (found by
+/// review: six took 3 GB and 31 s from 758 bytes).
+#[test]
+fn the_bodies_vertices_are_bounded_per_file() {
+    let mut d = fixed_doc();
+    let sparse = json!({"count": 1, "indices": {"bufferView": 4, "componentType": 5123},
+                        "values": {"bufferView": 0}});
+    let big = json!({"componentType": 5126, "count": 1 << 22, "type": "VEC3", "sparse": sparse,
+                     "min": [0, 0, 0], "max": [1, 1, 1]});
+    d["accessors"].as_array_mut().expect("accessors").push(big);
+    let primitive = json!({"attributes": {"POSITION": 8}});
+    d["meshes"] = json!([{"primitives": [primitive.clone(), primitive.clone(), primitive]}]);
+    d["nodes"][0] = json!({"mesh": 0});
+    let e = load_json(&d).expect_err("12M vertices");
+    let message = e.to_string();
+    assert!(
+        message.contains("primitives[2]") && message.contains("would hold 12582912 vertices"),
+        "{message}"
+    );
+}
+
+/// JOINTS_n / WEIGHTS_n sets past the second are read (glTF puts influences beyond four in
+/// the following sets), up to four sets; a fifth is ignored with a warning (found by review:
+/// a third set was dropped with no word but the renormalization's).
+#[test]
+fn later_weight_sets_are_read_up_to_four() {
+    // The minimal rig's buffer, then joints [1, 0, 0, 0] (u16, @320) and zero weights (@344).
+    let mut layout = Layout::valid();
+    let at = layout.bytes.len();
+    for _ in 0..3 {
+        layout
+            .bytes
+            .extend([1u16, 0, 0, 0].iter().flat_map(|x| x.to_le_bytes()));
+    }
+    f32s(&mut layout.bytes, &[0.0; 12]);
+    let mut d = fixed_doc_of(&layout);
+    let views = d["bufferViews"].as_array_mut().expect("views");
+    views.extend([view(at, 24), view(at + 24, 48)]);
+    let accessors = d["accessors"].as_array_mut().expect("accessors");
+    accessors.extend([acc(8, 5123, 3, "VEC4"), acc(9, 5126, 3, "VEC4")]);
+    // Set 1: no weight; set 2: vertex 1 (on joint 0 in set 0) gets weight 1 on joint 1; sets 3
+    // and 4 like set 1.
+    let attributes = &mut d["meshes"][0]["primitives"][0]["attributes"];
+    for (set, joints, weights) in [(1, 2, 9), (2, 8, 3), (3, 2, 9), (4, 2, 9)] {
+        attributes[format!("JOINTS_{set}")] = json!(joints);
+        attributes[format!("WEIGHTS_{set}")] = json!(weights);
+    }
+    let rig = load_json(&d).expect("five sets");
+    assert_warned(&rig, "JOINTS_4 / WEIGHTS_4 and later sets ignored");
+    let row: Vec<(usize, f64)> = rig.bodies[0].weights.row(1).collect();
+    assert_eq!(row, vec![(0, 0.5), (1, 0.5)]);
+}
+
+/// An animated node given by a matrix (glTF 2.0 §3.11 requires TRS) is read with a warning
+/// saying its matrix is decomposed (it posed a sheared matrix wrong without a word).
+#[test]
+fn an_animated_matrix_node_is_a_warning() {
+    let mut d = fixed_doc();
+    d["nodes"][2] =
+        json!({"name": "tip", "matrix": [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 1, 0, 1]});
+    let rig = load_json(&d).expect("loads");
+    assert_warned(&rig, "nodes[2]: animated but given by a matrix");
+    assert!(!load_json(&fixed_doc())
+        .expect("loads")
+        .warnings
+        .iter()
+        .any(|w| w.contains("matrix")));
+}
+
 #[test]
 fn missing_file_is_an_io_error() {
     let r = rig::load(Path::new("/nonexistent/nowhere.glb"));

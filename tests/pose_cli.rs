@@ -170,11 +170,8 @@ fn baked_glb_replays_the_frames() {
     let bytes = std::fs::read(out.join("RiggedFigure.baked.glb")).expect("baked glb");
     let gltf = gltf::Gltf::from_slice(&bytes).expect("valid glTF");
     let blob = gltf.blob.clone().expect("binary chunk");
-    let buffers = vec![blob];
-    let src = Source {
-        file: Path::new("baked.glb"),
-        buffers: &buffers,
-    };
+    let buffers = [blob.as_slice()];
+    let src = Source::new(Path::new("baked.glb"), &buffers);
     let rig = rig::load(&rig_path).expect("load");
     let pre = Precomputed::new(&rig, Method::Lbs);
     let times = frames::sample_times(&rig, Some(0), Some(5)).expect("frames");

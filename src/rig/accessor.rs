@@ -16,12 +16,34 @@ use std::path::Path;
 /// sparse values): such a count costs memory without costing file bytes.
 pub const MAX_VIEWLESS_ELEMENTS: usize = 1 << 22;
 
-/// Where accessor data comes from: the file name (for errors) and the resolved buffers.
+/// Most components (values) the accessor reads of one file may decode in all, morph target
+/// displacements aside (bounded on their own: [`crate::rig::MAX_MORPH_READS`]): 2 GB as `f64`.
+/// Accessors are read per use, and a file may use one accessor many times (a skin per
+/// character sharing one inverse-bind-matrix accessor, channels sharing one key accessor), so
+/// the file's size does not bound the reading (found by review: 500 skins naming one view-less
+/// accessor of 4M matrices took 55 s from 23 kB).
+pub const MAX_READ_COMPONENTS: usize = 1 << 28;
+
+/// Where accessor data comes from: the file name (for errors) and the resolved buffers, and
+/// the components read from them so far ([`MAX_READ_COMPONENTS`]).
 pub struct Source<'a> {
     /// The file, named in errors.
     pub file: &'a Path,
     /// The bytes of every buffer, in buffer order.
-    pub buffers: &'a [Vec<u8>],
+    pub buffers: &'a [&'a [u8]],
+    /// Components decoded so far by [`read`] (not [`read_unbounded`]).
+    read: std::cell::Cell<usize>,
+}
+
+impl<'a> Source<'a> {
+    /// The buffers of `file`, nothing read from them yet.
+    pub fn new(file: &'a Path, buffers: &'a [&'a [u8]]) -> Self {
+        Self {
+            file,
+            buffers,
+            read: std::cell::Cell::new(0),
+        }
+    }
 }
 
 /// An accessor's values as `f64`, `dims` per element.
@@ -213,6 +235,36 @@ pub fn read(
     dims_allowed: &[usize],
     force_normalized: bool,
 ) -> Result<Values, RigError> {
+    read_counted(
+        src,
+        doc,
+        (index, role),
+        dims_allowed,
+        force_normalized,
+        true,
+    )
+}
+
+/// [`read`] without counting against [`MAX_READ_COMPONENTS`], for reads bounded otherwise (the
+/// morph targets').
+pub fn read_unbounded(
+    src: &Source,
+    doc: &gltf::Document,
+    index: usize,
+    role: &str,
+    dims_allowed: &[usize],
+) -> Result<Values, RigError> {
+    read_counted(src, doc, (index, role), dims_allowed, false, false)
+}
+
+fn read_counted(
+    src: &Source,
+    doc: &gltf::Document,
+    (index, role): (usize, &str),
+    dims_allowed: &[usize],
+    force_normalized: bool,
+    counted: bool,
+) -> Result<Values, RigError> {
     let ctx = Ctx {
         src,
         accessor: index,
@@ -231,6 +283,20 @@ pub fn read(
     let t = accessor.data_type();
     let normalized = t != DataType::F32 && (accessor.normalized() || force_normalized);
     let count = accessor.count();
+    if accessor.view().is_none() && count > MAX_VIEWLESS_ELEMENTS {
+        return Err(ctx.err(format!(
+            "count {count} without a bufferView exceeds the limit of {MAX_VIEWLESS_ELEMENTS}"
+        )));
+    }
+    if counted {
+        let read = src.read.get().saturating_add(count.saturating_mul(dims));
+        if read > MAX_READ_COMPONENTS {
+            return Err(ctx.err(format!(
+                "the file's accessor reads exceed {MAX_READ_COMPONENTS} values"
+            )));
+        }
+        src.read.set(read);
+    }
     let mut data = Vec::new();
     match accessor.view() {
         Some(view) => ctx.read_strided(
@@ -242,14 +308,7 @@ pub fn read(
             normalized,
             &mut data,
         )?,
-        None => {
-            if count > MAX_VIEWLESS_ELEMENTS {
-                return Err(ctx.err(format!(
-                    "count {count} without a bufferView exceeds the limit of {MAX_VIEWLESS_ELEMENTS}"
-                )));
-            }
-            data = vec![0.0; count * dims];
-        }
+        None => data = vec![0.0; count * dims],
     }
     if let Some(sparse) = accessor.sparse() {
         apply_sparse(&ctx, &sparse, count, dims, t, normalized, &mut data)?;

@@ -17,7 +17,9 @@ mod weights;
 pub use animation::{Animation, Channel, Interpolation, Property};
 pub use error::RigError;
 pub(crate) use load::{confined_path, read_whole, Confinement, Unreadable};
-pub use load::{load, load_from_bytes, MAX_MORPH_DISPLACEMENTS, MAX_MORPH_READS};
+pub use load::{
+    load, load_from_bytes, MAX_FILE_VERTICES, MAX_MORPH_DISPLACEMENTS, MAX_MORPH_READS,
+};
 pub use morph::{MorphTarget, MorphedShape, Morphs};
 pub use skeleton::{LocalTransform, Node, Pose, Trs};
 pub use weights::SkinWeights;

@@ -14,10 +14,23 @@ pub(super) fn read_animations(
     warnings: &mut Vec<String>,
 ) -> Result<Vec<Animation>, RigError> {
     let mut out = Vec::new();
+    let mut matrix_nodes: Vec<usize> = Vec::new();
     for anim in doc.animations() {
         let mut channels = Vec::new();
         for ch in anim.channels() {
             let at = format!("animations[{}].channels[{}]", anim.index(), ch.index());
+            let node = ch.target().node();
+            let is_matrix = matches!(node.transform(), gltf::scene::Transform::Matrix { .. });
+            if is_matrix && !matrix_nodes.contains(&node.index()) {
+                matrix_nodes.push(node.index());
+                // glTF 2.0 §3.11: an animated node MUST be given by TRS (found by review: a
+                // sheared or zero-scale matrix posed wrong without a word).
+                warnings.push(format!(
+                    "nodes[{}]: animated but given by a matrix (glTF requires TRS): its \
+                     matrix is decomposed into translation, rotation and scale, shear dropped",
+                    node.index()
+                ));
+            }
             let property = match ch.target().property() {
                 gltf::animation::Property::Translation => Property::Translation,
                 gltf::animation::Property::Rotation => Property::Rotation,

@@ -25,6 +25,7 @@ pub(super) fn read_bodies(
     let mut bodies = Vec::new();
     let mut extras = Vec::new();
     let mut morphs = MorphReader::default();
+    let mut vertices = 0;
     for rigid in [false, true] {
         for node in doc.nodes() {
             let Some(mesh) = node.mesh() else { continue };
@@ -39,6 +40,7 @@ pub(super) fn read_bodies(
                 mesh: &mesh,
                 skin: (index, skin),
                 rigid,
+                vertices_before: vertices,
             };
             let read = read_body(src, doc, &at, &mut morphs, warnings)?;
             let Some((mut body, extra)) = read else {
@@ -55,6 +57,7 @@ pub(super) fn read_bodies(
             if body.name.is_empty() {
                 body.name = format!("body{}", bodies.len());
             }
+            vertices += body.vertex_count();
             bodies.push(body);
             extras.push(extra);
         }
@@ -79,7 +82,15 @@ struct BodyAt<'a> {
     mesh: &'a gltf::Mesh<'a>,
     skin: (usize, &'a Skin),
     rigid: bool,
+    /// Vertices of the file's bodies read before this one ([`MAX_FILE_VERTICES`]).
+    vertices_before: usize,
 }
+
+/// Most vertices the bodies of one file may hold in all (about 1.5 GB of positions, normals
+/// and weights). Every node instancing a mesh and every primitive naming an accessor reads it
+/// again, so the file's size does not bound them (found by review: a 758-byte file of six
+/// primitives naming one view-less accessor of 4M positions took 3 GB and 31 s).
+pub const MAX_FILE_VERTICES: usize = 1 << 23;
 
 /// One body: the triangle primitives of `at`'s mesh, with its custom attributes and its morph
 /// targets (read by the file's `morphs`). `None` (with a warning) when the mesh has no
@@ -96,6 +107,7 @@ fn read_body(
         mesh,
         skin: (skin_index, skin),
         rigid,
+        vertices_before,
     } = *at;
     let name = node.name().or(mesh.name()).unwrap_or_default().to_string();
     let mut body = Body {
@@ -115,6 +127,17 @@ fn read_body(
     let mut primitive_extras = Vec::new();
     let mut targets: Vec<Vec<MorphTarget>> = Vec::new();
     for prim in mesh.primitives() {
+        let incoming = prim
+            .get(&gltf::Semantic::Positions)
+            .map_or(0, |a| a.count());
+        let total = (vertices_before + body.positions.len()).saturating_add(incoming);
+        if is_triangles(&prim) && total > MAX_FILE_VERTICES {
+            let message = format!(
+                "the file's bodies would hold {total} vertices, more than {MAX_FILE_VERTICES}"
+            );
+            let at = format!("meshes[{}].primitives[{}]", mesh.index(), prim.index());
+            return Err(invalid(src.file, at, message));
+        }
         let at = PrimitiveAt {
             mesh: mesh.index(),
             skin,
@@ -389,9 +412,15 @@ fn normals_present(prim: &gltf::Primitive) -> bool {
     prim.get(&gltf::Semantic::Normals).is_some()
 }
 
-/// Reads JOINTS_0/1 and WEIGHTS_0/1 into normalized rows, with the fallbacks documented on
-/// [`crate::rig`]: invalid (NaN, negative) weights are dropped, rows are renormalized, a vertex
-/// with no usable weight follows the skin's first joint; each fallback is counted in `warnings`.
+/// Most JOINTS_n / WEIGHTS_n sets read (16 influences per vertex); later ones are ignored
+/// with a warning. Until 2026-12-06 only sets 0 and 1 were read, and later ones dropped with
+/// no word but the renormalization's (found by review).
+const MAX_WEIGHT_SETS: u32 = 4;
+
+/// Reads the JOINTS_n and WEIGHTS_n sets (up to [`MAX_WEIGHT_SETS`]) into normalized rows, with
+/// the fallbacks documented on [`crate::rig`]: invalid (NaN, negative) weights are dropped,
+/// rows are renormalized, a vertex with no usable weight follows the skin's first joint; each
+/// fallback is counted in `warnings`.
 fn read_weights(
     src: &Source,
     doc: &gltf::Document,
@@ -402,7 +431,18 @@ fn read_weights(
     warnings: &mut Vec<String>,
 ) -> Result<SkinWeights, RigError> {
     let mut raw: Vec<Vec<(u16, f64)>> = vec![Vec::with_capacity(4); n];
-    for set in 0..2u32 {
+    let later = |set: u32| {
+        prim.get(&gltf::Semantic::Joints(set)).is_some()
+            || prim.get(&gltf::Semantic::Weights(set)).is_some()
+    };
+    if later(MAX_WEIGHT_SETS) {
+        warnings.push(format!(
+            "{at}: JOINTS_{MAX_WEIGHT_SETS} / WEIGHTS_{MAX_WEIGHT_SETS} and later sets ignored \
+             (at most {} influences per vertex are read)",
+            4 * MAX_WEIGHT_SETS
+        ));
+    }
+    for set in 0..MAX_WEIGHT_SETS {
         let (ja, wa) = (
             prim.get(&gltf::Semantic::Joints(set)),
             prim.get(&gltf::Semantic::Weights(set)),

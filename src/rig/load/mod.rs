@@ -16,6 +16,7 @@ mod skins;
 use animations::read_animations;
 pub(super) use bodies::area_weighted_normals;
 use bodies::read_bodies;
+pub use bodies::MAX_FILE_VERTICES;
 use buffers::resolve_buffers;
 pub(crate) use buffers::{confined_path, Confinement};
 pub use morphs::{MAX_MORPH_DISPLACEMENTS, MAX_MORPH_READS};
@@ -126,11 +127,9 @@ fn load_impl(file: &Path, bytes: &[u8], folder: Option<&Path>) -> Result<Rig, Ri
     }
     validate_json(file, gltf.document.as_json())?;
     check_enums(file, gltf.document.as_json())?;
-    let buffers = resolve_buffers(file, &gltf, folder)?;
-    let src = Source {
-        file,
-        buffers: &buffers,
-    };
+    let resolved = resolve_buffers(file, &gltf, folder)?;
+    let buffers: Vec<&[u8]> = resolved.iter().map(|b| b.bytes()).collect();
+    let src = Source::new(file, &buffers);
     let doc = &gltf.document;
     let mut warnings = Vec::new();
     if let Some(w) = glb_length_warning(bytes) {

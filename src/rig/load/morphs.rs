@@ -100,7 +100,7 @@ impl MorphReader {
             );
             return Err(invalid(src.file, role, message));
         }
-        let values = accessor::read(src, doc, acc.index(), role, &[3], false)?;
+        let values = accessor::read_unbounded(src, doc, acc.index(), role, &[3])?;
         if values.data.iter().any(|x| !x.is_finite()) {
             return Err(invalid(src.file, role, "holds a non-finite value"));
         }
