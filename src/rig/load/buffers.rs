@@ -44,11 +44,8 @@ pub(super) fn resolve_buffers(
         };
         let data: Arc<[u8]> = match buffer.source() {
             gltf::buffer::Source::Bin if i != 0 => {
-                return Err(err(
-                    "has no URI: only buffers[0] may refer to the GLB binary \
-                                chunk"
-                        .into(),
-                ))
+                let message = "has no URI: only buffers[0] may refer to the GLB binary chunk";
+                return Err(err(message.into()));
             }
             gltf::buffer::Source::Bin => chunk
                 .clone()
