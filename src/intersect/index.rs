@@ -219,13 +219,19 @@ impl MeshIndex {
     /// ([`crate::intersect::Intersections::between_sets`]), which find the same pairs as on a
     /// full refit. Neither the copy of the tree nor its faces' boxes: a frame of the
     /// self-contact pass without contact is about this refit and those queries. `tree` is
-    /// left as it was on an error.
+    /// left as it was on an error. `finite`: the caller checked the positions finite (the
+    /// self-contact pass checks its input), only their count is checked here.
     pub(crate) fn refit_nodes_in(
         &self,
         positions: &[Point3<f64>],
         tree: &mut TriangleBvh,
+        finite: bool,
     ) -> Result<(), IntersectError> {
-        self.check_frame(positions)?;
+        if finite {
+            self.check_count(positions)?;
+        } else {
+            self.check_frame(positions)?;
+        }
         debug_assert!(tree.same_shape(&self.bvh), "a tree of another index");
         let corners = self
             .leaf_corners
@@ -268,7 +274,7 @@ impl MeshIndex {
     /// Two disjoint sets of this surface's faces (`label(face)` 1 and 2) marked in its BVH, for
     /// [`crate::intersect::Intersections::between_sets`].
     pub fn face_sets(&self, label: impl Fn(u32) -> u8) -> FaceSets {
-        self.bvh.face_sets(label)
+        self.bvh.face_sets_on(label, &self.triangles)
     }
 
     /// The surface at one frame with a BVH rebuilt from scratch (tighter after large motions).

@@ -61,6 +61,20 @@ impl Aabb {
         }
     }
 
+    /// The box, or the empty box when it is a point (`min == max`). Chosen coordinate by
+    /// coordinate: chosen as a whole, the two boxes went through memory and the box's reads
+    /// waited for its writes (a load spanning two stores is not forwarded).
+    #[inline]
+    pub(super) fn empty_if_point(&self) -> Aabb {
+        let point =
+            (self.min.x == self.max.x) & (self.min.y == self.max.y) & (self.min.z == self.max.z);
+        let or_empty = |c: f64, empty: f64| if point { empty } else { c };
+        Aabb {
+            min: self.min.map(|c| or_empty(c, f64::INFINITY)),
+            max: self.max.map(|c| or_empty(c, f64::NEG_INFINITY)),
+        }
+    }
+
     /// Closed-interval overlap test (touching boxes overlap).
     #[inline]
     pub fn overlaps(&self, other: &Aabb) -> bool {

@@ -15,12 +15,7 @@ const BINS: usize = 12;
 /// twice as slow (measured on the finger's detection).
 #[inline]
 pub(super) fn face_box(positions: &[Point3<f64>], t: &[u32; 3]) -> Aabb {
-    let b = Aabb::of_triangle(t.map(|i| &positions[i as usize]));
-    if b.min.x == b.max.x && b.min.y == b.max.y && b.min.z == b.max.z {
-        Aabb::EMPTY
-    } else {
-        b
-    }
+    Aabb::of_triangle(t.map(|i| &positions[i as usize])).empty_if_point()
 }
 
 /// Builds the node array (children after their parent) and permutes `order` into leaf order.

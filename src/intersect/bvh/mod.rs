@@ -7,13 +7,14 @@
 //! consistent with the exact predicates.
 //!
 //! The tree and its refits are here; its boxes in `aabb`, its build in `build`, its pair
-//! queries in `pairs`.
+//! queries in `pairs`, where two of its face sets meet (where those queries start) in `meeting`.
 
 use nalgebra::{Point3, Vector3};
 use rayon::prelude::*;
 
 mod aabb;
 mod build;
+mod meeting;
 mod pairs;
 
 pub use aabb::Aabb;
@@ -405,9 +406,14 @@ mod tests {
         assert!(nodes_only.refit_nodes_at(&point, &nodes_only.leaf_corners(&tris)));
         assert!(nodes_only.root_box().is_none());
         assert!(nodes_only.candidate_pairs(&nodes_only).is_empty());
-        let sets = nodes_only.face_sets(|f| 1 + (f % 2) as u8);
-        let pairs = nodes_only.pairs_between_sets(&sets, &point, &tris, |x, y| Some((x, y)));
-        assert_eq!(pairs.ok(), Some(Vec::new()));
+        let label = |f: u32| 1 + (f % 2) as u8;
+        for sets in [
+            nodes_only.face_sets(label),
+            nodes_only.face_sets_on(label, &tris),
+        ] {
+            let pairs = nodes_only.pairs_between_sets(&sets, &point, &tris, |x, y| Some((x, y)));
+            assert_eq!(pairs.ok(), Some(Vec::new()));
+        }
     }
 
     /// A bounded query answers as the unbounded one on surfaces that meet along curves (two
@@ -435,11 +441,13 @@ mod tests {
             c.overlapping_pairs_bounded(&c, visit),
             Err(IntersectError::Entangled { budget }) if budget == pair_budget(2 * ta.len())
         ));
-        let sets = c.face_sets(|f| 1 + (f % 2) as u8);
-        assert!(matches!(
-            c.pairs_between_sets(&sets, &crumpled, &ta, visit),
-            Err(IntersectError::Entangled { .. })
-        ));
+        let label = |f: u32| 1 + (f % 2) as u8;
+        for sets in [c.face_sets(label), c.face_sets_on(label, &ta)] {
+            assert!(matches!(
+                c.pairs_between_sets(&sets, &crumpled, &ta, visit),
+                Err(IntersectError::Entangled { .. })
+            ));
+        }
     }
 
     /// A wavy grid (open surface) of `2 n²` triangles.
@@ -544,7 +552,8 @@ mod tests {
                 |k: u8| -> Vec<u32> { all.iter().copied().filter(|&f| label(f) == k).collect() };
             let (a, b) = (set(1), set(2));
             let mut tree = TriangleBvh::build(&mesh.0, &mesh.1, &all);
-            let sets = tree.face_sets(label);
+            // From the root, and from where the sets meet on the surface.
+            let both = [tree.face_sets(label), tree.face_sets_on(label, &mesh.1)];
             let corners = tree.leaf_corners(&mesh.1);
             let pairs = |t: &TriangleBvh, sets: &FaceSets, p: &[Point3<f64>]| {
                 t.pairs_between_sets(sets, p, &mesh.1, |x, y| Some((x, y)))
@@ -574,9 +583,6 @@ mod tests {
                     })
                     .collect();
                 assert!(!expected.is_empty());
-                let got = pairs(&tree, &sets, &positions);
-                assert_eq!(got.as_ref(), Some(&expected));
-                assert_eq!(pairs(&nodes_only, &sets, &positions), got);
                 // Without the pairs sharing a vertex: the others, and how many were dropped.
                 let tris = &mesh.1;
                 let shares = |&&(x, y): &&(u32, u32)| {
@@ -585,13 +591,20 @@ mod tests {
                         .any(|v| tris[y as usize].contains(v))
                 };
                 let (adjacent, separate): (Vec<_>, Vec<_>) = expected.iter().partition(shares);
-                let apart =
-                    tree.apart_pairs_between_sets(&sets, &positions, tris, |x, y| Some((x, y)));
                 let separate: Vec<(u32, u32)> = separate.into_iter().copied().collect();
-                assert_eq!(apart.ok(), Some((separate, adjacent.len())));
-                adjacent_seen += adjacent.len();
                 let other = TriangleBvh::build(&positions, &mesh.1, &a);
-                assert!(pairs(&other, &sets, &positions).is_none());
+                for sets in &both {
+                    let got = pairs(&tree, sets, &positions);
+                    assert_eq!(got.as_ref(), Some(&expected));
+                    assert_eq!(pairs(&nodes_only, sets, &positions), got);
+                    let visit = |x, y| Some((x, y));
+                    let apart = tree.apart_pairs_between_sets(sets, &positions, tris, visit);
+                    assert_eq!(apart.ok(), Some((separate.clone(), adjacent.len())));
+                    let apart = nodes_only.apart_pairs_between_sets(sets, &positions, tris, visit);
+                    assert_eq!(apart.ok(), Some((separate.clone(), adjacent.len())));
+                    assert!(pairs(&other, sets, &positions).is_none());
+                }
+                adjacent_seen += adjacent.len();
                 let ta = TriangleBvh::build(&positions, &mesh.1, &a);
                 let tb = TriangleBvh::build(&positions, &mesh.1, &b);
                 assert_eq!(ta.candidate_pairs(&tb), expected);
@@ -610,12 +623,68 @@ mod tests {
                     .filter(|(x, y)| x / 4 % 2 == 0 && y / 4 % 2 == 0)
                     .collect();
                 assert!(!kept.is_empty() && kept.len() < expected.len());
-                let restricted_sets = restricted.face_sets(label);
-                let got = pairs(&restricted, &restricted_sets, &positions);
-                assert_eq!(got, Some(kept));
+                for restricted_sets in [
+                    restricted.face_sets(label),
+                    restricted.face_sets_on(label, &mesh.1),
+                ] {
+                    let got = pairs(&restricted, &restricted_sets, &positions);
+                    assert_eq!(got.as_ref(), Some(&kept));
+                }
             }
         }
         assert!(adjacent_seen > 0, "the strips share vertices");
+    }
+
+    /// Where two sets meet: leaf pairs sharing a vertex and roots sharing none, which together
+    /// hold every pair of leaves with a face of each set once (a query from them finds the
+    /// pairs a query from the root finds: `pairs_between_sets_match_two_trees_and_brute_force`).
+    #[test]
+    fn the_meeting_of_two_sets_covers_their_leaf_pairs_once() {
+        let (pos, tris) = two_grids(0.0);
+        let all: Vec<u32> = (0..tris.len() as u32).collect();
+        let tree = TriangleBvh::build(&pos, &tris, &all);
+        let sets = tree.face_sets_on(|f| [1, 2, 0][(f / 3 % 3) as usize], &tris);
+        let meeting = &sets.meeting;
+        assert!(!meeting.leaves.is_empty() && !meeting.roots.is_empty());
+        // The corners of the faces under each node.
+        let mut under: Vec<Vec<u32>> = vec![Vec::new(); tree.nodes.len()];
+        let mut parent = vec![None; tree.nodes.len()];
+        for (i, n) in tree.nodes.iter().enumerate().rev() {
+            under[i] = match n.count {
+                0 => {
+                    let first = n.first as usize;
+                    parent[first] = Some(i);
+                    parent[first + 1] = Some(i);
+                    [under[first].clone(), under[first + 1].clone()].concat()
+                }
+                _ => (n.first..n.first + n.count)
+                    .flat_map(|s| tris[tree.faces[s as usize] as usize])
+                    .collect(),
+            };
+        }
+        let share = |a: u32, b: u32| {
+            under[a as usize]
+                .iter()
+                .any(|v| under[b as usize].contains(v))
+        };
+        assert!(meeting.leaves.iter().all(|&(a, b)| share(a, b)));
+        assert!(meeting.roots.iter().all(|&(a, b)| !share(a, b)));
+        // Node `i` and its ancestors.
+        let line = |i: u32| std::iter::successors(Some(i as usize), |&n| parent[n]);
+        let leaves = (0..tree.nodes.len() as u32).filter(|&i| tree.nodes[i as usize].count > 0);
+        let mut checked = 0;
+        for la in leaves.clone() {
+            for lb in leaves.clone().filter(|&lb| sets.may_pair(la, lb)) {
+                let met = meeting.leaves.iter().filter(|&&p| p == (la, lb)).count();
+                let rooted = (meeting.roots.iter())
+                    .filter(|&&(a, _)| line(la).any(|n| n == a as usize))
+                    .filter(|&&(_, b)| line(lb).any(|n| n == b as usize))
+                    .count();
+                assert_eq!(met + rooted, 1, "leaves {la} and {lb}");
+                checked += 1;
+            }
+        }
+        assert!(checked > meeting.leaves.len());
     }
 
     /// Every face hit by the vertical ray through `(x, y)`, at its parameter (brute force).

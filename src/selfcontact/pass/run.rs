@@ -65,7 +65,8 @@ impl SelfContactPass {
             .lock()
             .ok()
             .and_then(|mut spare| spare.pop());
-        let mut bodies = PosedBodies::new(positions, trees, self.slots.len());
+        // Checked finite above (`check_frame`).
+        let mut bodies = PosedBodies::new(positions, trees, self.slots.len()).checked_finite();
         let out = self.sweeps(rig, pose, normals, &mut bodies);
         if let Ok(mut spare) = self.spare_trees.lock() {
             spare.push(bodies.into_trees());
