@@ -187,12 +187,9 @@ pub(super) fn write_glb(job: &Job, times: &[f64]) -> Result<Written, BoxError> {
     // Before any frame is computed (and held: a baked glb keeps them all).
     let keys = glb::key_times(times).len();
     if keys > glb::MAX_BAKED_FRAMES {
-        let max = glb::MAX_BAKED_FRAMES;
-        return Err(format!(
-            "{keys} frames to key: a baked glb keys at most {max} (use --format obj, or fewer \
-             --frames; nothing written)"
-        )
-        .into());
+        let refused = glb::BakeError::TooManyFrames { frames: keys };
+        let remedy = "use --format obj, or fewer --frames; nothing written";
+        return Err(format!("{refused} ({remedy})").into());
     }
     if a.diagnostics {
         guard_outputs(job, times)?;
