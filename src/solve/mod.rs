@@ -1,6 +1,9 @@
 //! Sparse symmetric positive definite solves with `faer`: the symbolic analysis (AMD ordering,
 //! elimination tree) is done once per sparsity pattern — once per working region, before any
-//! frame — and only the numeric Cholesky factorization is redone per frame.
+//! frame — and only the numeric Cholesky factorization is redone per frame. The matrix is
+//! assembled directly in the ordering and triangle the factorization reads (as faer's
+//! `factorize_numeric_llt` would permute it), and the factorization's workspace size is known
+//! from the pattern: neither is redone per factorization.
 //!
 //! Matrices on a region have one value *slot* per vertex (the diagonal) and one per edge
 //! (the symmetric off-diagonal pair), so a pattern is built from a region's edge list
@@ -9,12 +12,13 @@
 //! factorization, stays valid. faer runs sequentially here (the crate is built without its
 //! `rayon` feature); parallelism goes across frames and regions.
 
-use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::sparse::linalg::cholesky::{
-    factorize_symbolic_cholesky, CholeskySymbolicParams, LltRef, SymbolicCholesky,
-    SymbolicCholeskyRaw, SymmetricOrdering,
+    factorize_symbolic_cholesky, simplicial, supernodal, CholeskySymbolicParams, LltRef,
+    SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering,
 };
 use faer::sparse::linalg::SupernodalThreshold;
+use faer::sparse::utils::permute_self_adjoint_to_unsorted;
 use faer::sparse::{Pair, SparseColMatRef, SymbolicSparseColMat};
 use faer::{Conj, Mat, Par, Side};
 use std::sync::Arc;
@@ -71,10 +75,14 @@ pub const SUPERNODAL_THRESHOLD: SupernodalThreshold = SupernodalThreshold(0.5);
 pub struct SpdPattern {
     n: usize,
     edges: Vec<[u32; 2]>,
-    symbolic: SymbolicSparseColMat<usize>,
+    /// The pattern permuted by the fill-reducing ordering into the triangle the numeric
+    /// factorization reads ([`PermutedPattern`]).
+    permuted: SymbolicSparseColMat<usize>,
     llt: Arc<SymbolicCholesky<usize>>,
-    /// Position of each slot in the lower-triangular CSC value array.
+    /// Position of each slot in the value array of `permuted`.
     slot_position: Vec<usize>,
+    /// Workspace of one numeric factorization.
+    scratch: StackReq,
 }
 
 impl SpdPattern {
@@ -100,21 +108,20 @@ impl SpdPattern {
             params,
         )
         .map_err(|e| SolveError::Symbolic(format!("{e:?}")))?;
-        let llt = Arc::new(llt);
         let col_ptr = symbolic.col_ptr();
         let row_idx = symbolic.row_idx();
-        let slot_position = pairs
-            .iter()
-            .map(|p| {
-                let (start, end) = (col_ptr[p.col], col_ptr[p.col + 1]);
-                start + row_idx[start..end].binary_search(&p.row).unwrap_or(0)
-            })
-            .collect();
+        let lower_position = pairs.iter().map(|p| {
+            let (start, end) = (col_ptr[p.col], col_ptr[p.col + 1]);
+            start + row_idx[start..end].binary_search(&p.row).unwrap_or(0)
+        });
+        let PermutedPattern { pattern, moved_to } = PermutedPattern::new(&symbolic, &llt)?;
+        let slot_position = lower_position.map(|p| moved_to[p]).collect();
         Ok(Self {
             n,
             edges: edges.to_vec(),
-            symbolic,
-            llt,
+            permuted: pattern,
+            scratch: numeric_scratch(&llt),
+            llt: Arc::new(llt),
             slot_position,
         })
     }
@@ -147,7 +154,7 @@ impl SpdPattern {
                 got: slots.len(),
             });
         }
-        let mut values = vec![0.0; self.symbolic.row_idx().len()];
+        let mut values = vec![0.0; self.permuted.row_idx().len()];
         let mut finite = true;
         for (&pos, &v) in self.slot_position.iter().zip(slots) {
             values[pos] += v;
@@ -160,36 +167,111 @@ impl SpdPattern {
                 message: "a non-finite value".to_owned(),
             });
         }
-        let mat = SparseColMatRef::new(self.symbolic.as_ref(), &values);
+        let mat = SparseColMatRef::new(self.permuted.as_ref(), &values);
         let out_of_memory = SolveError::OutOfMemory { what };
         let mut numeric = Vec::new();
         if numeric.try_reserve_exact(self.llt.len_val()).is_err() {
             return Err(out_of_memory);
         }
         numeric.resize(self.llt.len_val(), 0.0);
-        let scratch = self
-            .llt
-            .factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default());
-        let mut buffer = MemBuffer::try_new(scratch).map_err(|_| out_of_memory)?;
-        self.llt
-            .factorize_numeric_llt(
+        let mut buffer = MemBuffer::try_new(self.scratch).map_err(|_| out_of_memory)?;
+        let stack = MemStack::new(&mut buffer);
+        // What `SymbolicCholesky::factorize_numeric_llt` does after permuting the matrix.
+        let factorized = match self.llt.raw() {
+            SymbolicCholeskyRaw::Simplicial(s) => simplicial::factorize_simplicial_numeric_llt(
                 &mut numeric,
                 mat,
-                Side::Lower,
                 Default::default(),
+                s,
+                stack,
+            ),
+            SymbolicCholeskyRaw::Supernodal(s) => supernodal::factorize_supernodal_numeric_llt(
+                &mut numeric,
+                mat,
+                Default::default(),
+                s,
                 Par::Seq,
-                MemStack::new(&mut buffer),
+                stack,
                 Default::default(),
-            )
-            .map_err(|e| SolveError::NotPositiveDefinite {
-                what,
-                message: format!("{e:?}"),
-            })?;
+            ),
+        };
+        factorized.map_err(|e| SolveError::NotPositiveDefinite {
+            what,
+            message: format!("{e:?}"),
+        })?;
         Ok(Factor {
             symbolic: Arc::clone(&self.llt),
             numeric,
             n: self.n,
         })
+    }
+}
+
+/// The workspace of one numeric factorization with `llt` (sequential, default parameters):
+/// what `SymbolicCholesky::factorize_numeric_llt_scratch` gives but the permuted copy of the
+/// matrix, which [`SpdPattern`] assembles itself.
+fn numeric_scratch(llt: &SymbolicCholesky<usize>) -> StackReq {
+    match llt.raw() {
+        SymbolicCholeskyRaw::Simplicial(_) => {
+            simplicial::factorize_simplicial_numeric_llt_scratch::<usize, f64>(llt.nrows())
+        }
+        SymbolicCholeskyRaw::Supernodal(s) => {
+            supernodal::factorize_supernodal_numeric_llt_scratch::<usize, f64>(
+                s,
+                Par::Seq,
+                Default::default(),
+            )
+        }
+    }
+}
+
+/// The lower-triangular pattern `P A Pᵀ` of a matrix `A`, `P` the fill-reducing ordering of a
+/// symbolic factorization, stored in the triangle its numeric factorization reads (lower for
+/// the supernodal one, upper for the simplicial one) and in faer's own entry order: what
+/// `SymbolicCholesky::factorize_numeric_llt` builds from `A` before every factorization,
+/// built once here (same entries in the same order, so the same factor to the bit).
+struct PermutedPattern {
+    pattern: SymbolicSparseColMat<usize>,
+    /// Position in `pattern` of each entry of `A`'s lower-triangular value array.
+    moved_to: Vec<usize>,
+}
+
+impl PermutedPattern {
+    fn new(
+        lower: &SymbolicSparseColMat<usize>,
+        llt: &SymbolicCholesky<usize>,
+    ) -> Result<Self, SolveError> {
+        let n = lower.nrows();
+        let nnz = lower.row_idx().len();
+        let perm = llt
+            .perm()
+            .ok_or_else(|| SolveError::Symbolic("no fill-reducing ordering".to_owned()))?;
+        let out_side = match llt.raw() {
+            SymbolicCholeskyRaw::Simplicial(_) => Side::Upper,
+            SymbolicCholeskyRaw::Supernodal(_) => Side::Lower,
+        };
+        // Each entry carries its own position (exact in f64), to read where it went.
+        let ids: Vec<f64> = (0..nnz).map(|p| p as f64).collect();
+        let (mut new_ids, mut col_ptr, mut row_idx) =
+            (vec![0.0; nnz], vec![0; n + 1], vec![0; nnz]);
+        let mut buffer = MemBuffer::try_new(StackReq::new::<usize>(n))
+            .map_err(|_| SolveError::Symbolic("out of memory".to_owned()))?;
+        permute_self_adjoint_to_unsorted(
+            &mut new_ids,
+            &mut col_ptr,
+            &mut row_idx,
+            SparseColMatRef::new(lower.as_ref(), &ids),
+            perm,
+            Side::Lower,
+            out_side,
+            MemStack::new(&mut buffer),
+        );
+        let mut moved_to = vec![0; nnz];
+        for (q, &id) in new_ids.iter().enumerate() {
+            moved_to[id as usize] = q;
+        }
+        let pattern = SymbolicSparseColMat::new_unsorted_checked(n, n, col_ptr, None, row_idx);
+        Ok(Self { pattern, moved_to })
     }
 }
 
@@ -354,6 +436,51 @@ mod tests {
                     "{n} unknowns: {v}"
                 );
             }
+        }
+    }
+
+    /// faer's own path: the lower-triangular matrix of `slots` in sorted CSC, permuted and
+    /// factorized by `SymbolicCholesky::factorize_numeric_llt`.
+    fn faer_factor(pattern: &SpdPattern, slots: &[f64]) -> Vec<f64> {
+        let n = pattern.size();
+        let mut triplets: Vec<faer::sparse::Triplet<usize, usize, f64>> = (0..n)
+            .map(|i| faer::sparse::Triplet::new(i, i, slots[i]))
+            .collect();
+        for (e, &[a, b]) in pattern.edges().iter().enumerate() {
+            let (row, col) = (a.max(b) as usize, a.min(b) as usize);
+            triplets.push(faer::sparse::Triplet::new(row, col, slots[n + e]));
+        }
+        let lower = faer::sparse::SparseColMat::try_new_from_triplets(n, n, &triplets)
+            .expect("lower matrix");
+        let mut numeric = vec![0.0; pattern.llt.len_val()];
+        let scratch = pattern
+            .llt
+            .factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default());
+        let mut buffer = MemBuffer::new(scratch);
+        pattern
+            .llt
+            .factorize_numeric_llt(
+                &mut numeric,
+                lower.as_ref(),
+                Side::Lower,
+                Default::default(),
+                Par::Seq,
+                MemStack::new(&mut buffer),
+                Default::default(),
+            )
+            .expect("faer's factorization");
+        numeric
+    }
+
+    #[test]
+    fn the_matrix_assembled_permuted_gives_faers_factor_to_the_bit() {
+        for k in [3, 40] {
+            let (n, edges, slots) = torus(k);
+            let pattern = SpdPattern::new(n, &edges).expect("symbolic");
+            let ours = pattern.factor(&slots, "test").expect("numeric").numeric;
+            let faers = faer_factor(&pattern, &slots);
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&ours), bits(&faers), "{n} unknowns");
         }
     }
 
