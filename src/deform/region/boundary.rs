@@ -22,8 +22,11 @@ pub(super) fn cut_boundary(
     for (l, &v) in region.vertices.iter().enumerate() {
         inside[l] = contacts.iter().any(|c| c.zone.inside[v as usize]);
     }
-    let mut per_edge: Vec<Option<(f64, CutPoint)>> =
-        (0..region.edges.len()).map(|_| None).collect();
+    // The kept point of each edge, as an index into `kept` (`u32::MAX`: none). A point per
+    // edge (200 bytes each) would make ~2 MB per region and fold on the finger, fresh pages
+    // zeroed and faulted in each time, for the few hundred edges that get one.
+    let mut per_edge = vec![u32::MAX; region.edges.len()];
+    let mut kept: Vec<(f64, CutPoint)> = Vec::new();
     for (k, c) in contacts.iter().enumerate() {
         for bp in &c.zone.boundary {
             let (li, lj) = (
@@ -36,17 +39,23 @@ pub(super) fn cut_boundary(
             let Some(e) = region.edge(li, lj) else {
                 continue;
             };
+            let point = (
+                bp.alpha,
+                CutPoint {
+                    contact: k,
+                    inside: li,
+                    outside: lj,
+                    sample: bp.sample,
+                },
+            );
             let slot = &mut per_edge[e as usize];
-            if slot.as_ref().is_none_or(|(alpha, _)| bp.alpha > *alpha) {
-                *slot = Some((
-                    bp.alpha,
-                    CutPoint {
-                        contact: k,
-                        inside: li,
-                        outside: lj,
-                        sample: bp.sample,
-                    },
-                ));
+            match kept.get_mut(*slot as usize) {
+                Some(old) if bp.alpha > old.0 => *old = point,
+                Some(_) => {}
+                None => {
+                    *slot = kept.len() as u32;
+                    kept.push(point);
+                }
             }
         }
     }
@@ -57,8 +66,8 @@ pub(super) fn cut_boundary(
             continue;
         }
         let (li, lj) = if inside[a as usize] { (a, b) } else { (b, a) };
-        let (alpha, cp) = match per_edge[e].take() {
-            Some(x) => x,
+        let (alpha, cp) = match kept.get(per_edge[e] as usize) {
+            Some(&x) => x,
             None => {
                 stats.filled_boundary_points += 1;
                 (0.0, filled_point(wr, contacts, li, lj))

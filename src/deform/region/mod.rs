@@ -208,6 +208,7 @@ pub struct RegionDeformation {
 }
 
 /// A boundary point of the union of the zones, with the contact it comes from.
+#[derive(Clone, Copy)]
 struct CutPoint {
     contact: usize,
     /// Local vertices inside / outside.
