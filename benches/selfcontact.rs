@@ -68,17 +68,42 @@ fn with_skeleton_pairs(rig: &Rig, pre: &Precomputed) -> SelfContactPass {
     .expect("pass")
 }
 
+/// Runs of each frame in [`breakdown`], of which the fastest is kept: on this shared,
+/// virtualized machine a frame's time varies by 10-40 % from run to run (preemption), and
+/// the fastest run is the one least disturbed. Every run gives the same output.
+const RUNS_PER_FRAME: usize = 5;
+
+/// The pass on frame `t`, run [`RUNS_PER_FRAME`] times: the fastest run's output and wall time.
+fn fastest_run(
+    rig: &Rig,
+    pre: &Precomputed,
+    pass: &SelfContactPass,
+    t: f64,
+) -> (contact_skin::selfcontact::pass::SelfPassOutput, f64) {
+    let pose = rig.pose_at(Some(0), t);
+    let run = || {
+        let mut pos = frames::welded_positions(rig, pre, Some(0), t);
+        let start = Instant::now();
+        let out = pass.run(rig, &pose, &mut pos).expect("pass");
+        (out, start.elapsed().as_secs_f64())
+    };
+    let mut best = run();
+    for _ in 1..RUNS_PER_FRAME {
+        let next = run();
+        if next.1 < best.1 {
+            best = next;
+        }
+    }
+    best
+}
+
 fn breakdown(name: &str, passes: usize, threads: usize) {
     let (rig, pre, pass, times) = setup(name, passes);
     let mut rows: Vec<(FoldTimings, f64)> = Vec::new();
     // Per joint pair: each of its folds in Table 1's columns (one joint: the paper's frame).
     let mut per_pair: BTreeMap<String, Vec<StageTimings>> = BTreeMap::new();
     for &t in &times {
-        let mut pos = frames::welded_positions(&rig, &pre, Some(0), t);
-        let pose = rig.pose_at(Some(0), t);
-        let start = Instant::now();
-        let out = pass.run(&rig, &pose, &mut pos).expect("pass");
-        let wall = start.elapsed().as_secs_f64();
+        let (out, wall) = fastest_run(&rig, &pre, &pass, t);
         if !out.folds.is_empty() {
             rows.push((out.timings, wall));
         }
@@ -89,7 +114,8 @@ fn breakdown(name: &str, passes: usize, threads: usize) {
     }
     let m = median_folds(&rows);
     println!(
-        "{name}, {passes} sweep(s), {threads} thread(s), median over {} frames with a fold:",
+        "{name}, {passes} sweep(s), {threads} thread(s), median over {} frames with a fold \
+         (each frame's fastest of {RUNS_PER_FRAME} runs):",
         rows.len()
     );
     for (label, ms) in [
