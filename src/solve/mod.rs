@@ -18,7 +18,7 @@ use faer::sparse::linalg::cholesky::{
     SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering,
 };
 use faer::sparse::linalg::SupernodalThreshold;
-use faer::sparse::utils::permute_self_adjoint_to_unsorted;
+use faer::sparse::utils::{permute_self_adjoint_scratch, permute_self_adjoint_to_unsorted};
 use faer::sparse::{Pair, SparseColMatRef, SymbolicSparseColMat};
 use faer::{Conj, Mat, Par, Side};
 use std::sync::Arc;
@@ -254,8 +254,8 @@ impl PermutedPattern {
         let ids: Vec<f64> = (0..nnz).map(|p| p as f64).collect();
         let (mut new_ids, mut col_ptr, mut row_idx) =
             (vec![0.0; nnz], vec![0; n + 1], vec![0; nnz]);
-        let mut buffer = MemBuffer::try_new(StackReq::new::<usize>(n))
-            .map_err(|_| SolveError::Symbolic("out of memory".to_owned()))?;
+        let mut buffer = MemBuffer::try_new(permute_self_adjoint_scratch::<usize>(n))
+            .map_err(|_| SolveError::OutOfMemory { what: "permuted" })?;
         permute_self_adjoint_to_unsorted(
             &mut new_ids,
             &mut col_ptr,
