@@ -1,15 +1,14 @@
-//! The library's two passes on one frame of a committed rig, as `README.md` ("Library") shows
-//! them: `cargo run --release --example library [RIG] [FRAME]` (default `rigs/finger.glb`, its
-//! deepest frame). `cargo test` compiles this file, so the README's calls stay true.
+//! The library's two passes on one frame of a rig, built as `pose --self-contact` builds them
+//! (README, "Library"): `cargo run --release --example library [RIG] [FRAME]` (default
+//! `rigs/finger.glb`, its last frame). `cargo test` compiles this file.
 //!
-//! Prints, per body, the penetrating vertices (`MEASURING.md`) of the skinned input, after the
-//! contact pass between bodies and after the self-contact pass, and the folds resolved.
+//! Prints the contacts between bodies and the folds resolved, and the penetrating vertices
+//! (`MEASURING.md`) of the skinned input and of the output.
 
+use contact_skin::config::ContactConfig;
 use contact_skin::mesh::operators::{mean_edge_length, vertex_normals, NormalWeighting};
-use contact_skin::pass::{ContactPass, ObjectParams, RestBody, RestOverlaps};
+use contact_skin::pass::{ContactPass, RestBody, RestOverlaps};
 use contact_skin::report::metrics;
-use contact_skin::selfcontact::separated::separated_from_skeleton;
-use contact_skin::selfcontact::{fold::FoldParams, pass::SelfContactPass, RegionOptions};
 use contact_skin::{frames, rig, skinning::Method};
 use nalgebra::Point3;
 use std::error::Error;
@@ -26,29 +25,22 @@ fn main() -> Result<(), Box<dyn Error>> {
     };
     let t = times[index];
 
-    // Once per rig, on the rest pose: the contact pass between separate bodies, and the
-    // self-contact pass with the regions of every parent/child joint pair and the separated
-    // regions the skeleton derives (`pose --self-contact`'s defaults without a configuration).
+    // Once per rig, on the rest pose, from the rig's configuration as `pose` finds it
+    // (`<rig stem>.contact.toml` next to the rig, else the defaults): the contact pass between
+    // separate bodies, and the self-contact pass (its joint pairs from the skin weights, the
+    // separated regions named or derived from the skeleton, the configured sweeps and
+    // parameters). Pairs crossing at rest are modeled overlaps, left out by both.
+    let config = ContactConfig::for_rig(path.as_ref(), None)?.unwrap_or_default();
     let rest = frames::welded_positions(&rig, &pre, None, 0.0);
     let bodies: Vec<RestBody> = (rest.iter().zip(&pre.welded))
         .map(|(p, w)| (p.as_slice(), w.triangles.as_slice()))
         .collect();
-    let params = vec![ObjectParams::default(); bodies.len()];
-    let objects = ContactPass::new(&bodies, params, vec![])?
-        // built on the true rest pose: pairs already crossing there are modeled overlaps
+    let (params, overrides, passes) = config.resolve(&rig, &pre.welded)?;
+    let objects = ContactPass::new(&bodies, params, overrides)?
+        .with_passes(passes)
         .with_rest_overlaps(RestOverlaps::LeftOut);
-    let options = RegionOptions::default();
-    let separated = separated_from_skeleton(&rig, &pre.welded, &options)?;
-    let folds = SelfContactPass::with_separated(
-        &rig,
-        &pre.welded,
-        &rest,
-        &options,
-        FoldParams::default(),
-        &[],
-        separated,
-    )?
-    .with_rest_overlaps(RestOverlaps::LeftOut);
+    let settings = config.resolve_self_contact(&rig, &pre.welded)?;
+    let folds = settings.pass(&rig, &pre.welded, &rest)?;
 
     // Per frame: a pure function of the pose.
     let skinned = frames::welded_positions(&rig, &pre, Some(0), t);
@@ -67,19 +59,25 @@ fn main() -> Result<(), Box<dyn Error>> {
         "  folds resolved in {} sweep(s): {names:?}",
         resolved.sweeps
     );
-    for (b, mesh) in pre.welded.iter().enumerate() {
-        let tris = &mesh.triangles;
-        let h = mean_edge_length(&rest[b], tris);
-        let inside = |p: &[Point3<f64>]| {
-            let n = vertex_normals(p, tris, NormalWeighting::Area);
-            metrics::residual_penetration(p, tris, &n, h).vertices
-        };
-        println!(
-            "  body {}: penetrating vertices {} skinned, {} after both passes",
-            rig.bodies[b].name,
-            inside(&skinned[b]),
-            inside(&positions[b])
-        );
-    }
+    // Penetrating vertices (`MEASURING.md`) over all bodies at once: inside another body or
+    // another part of their own; h is the rest mesh's mean edge length.
+    let h = (rest.iter().zip(&pre.welded))
+        .map(|(p, w)| mean_edge_length(p, &w.triangles))
+        .sum::<f64>()
+        / rest.len().max(1) as f64;
+    let inside = |positions: &[Vec<Point3<f64>>]| {
+        let normals: Vec<_> = (positions.iter().zip(&pre.welded))
+            .map(|(p, w)| vertex_normals(p, &w.triangles, NormalWeighting::Area))
+            .collect();
+        let bodies: Vec<metrics::Body> = (positions.iter().zip(&pre.welded).zip(&normals))
+            .map(|((p, w), n)| (p.as_slice(), w.triangles.as_slice(), n.as_slice()))
+            .collect();
+        metrics::residual_penetration_bodies(&bodies, h).vertices
+    };
+    println!(
+        "  penetrating vertices: {} skinned, {} after both passes",
+        inside(&skinned),
+        inside(&positions)
+    );
     Ok(())
 }

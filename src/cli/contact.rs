@@ -14,7 +14,6 @@ pub use contact_skin::report::timings::{median, median_folds, median_stages, Fol
 use contact_skin::rig::Rig;
 use contact_skin::selfcontact::fold::{FoldTimings, Unbalanced};
 use contact_skin::selfcontact::pass::{SelfContactPass, SelfPassOutput, UnbalancedCounts};
-use contact_skin::selfcontact::{extend_distinct, separated_from_skeleton, separated_regions};
 use nalgebra::Point3;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -116,33 +115,7 @@ impl SelfRun {
         rest: &[Vec<Point3<f64>>],
     ) -> Result<Self, BoxError> {
         let settings = cfg.resolve_self_contact(rig, &pre.welded)?;
-        let mut separated = Vec::new();
-        for [a, b] in &settings.separated {
-            separated.extend(separated_regions(
-                rig,
-                &pre.welded,
-                [a, b],
-                &settings.regions,
-            )?);
-        }
-        if settings.separated_from_skeleton {
-            let derived = separated_from_skeleton(rig, &pre.welded, &settings.regions)?;
-            extend_distinct(&mut separated, derived);
-        }
-        let pass = SelfContactPass::with_separated(
-            rig,
-            &pre.welded,
-            rest,
-            &settings.regions,
-            settings.params,
-            &settings.directions,
-            separated,
-        )?
-        .with_passes(settings.passes)
-        .with_max_passes(settings.max_passes)
-        .with_pair_params(&settings.pair_params)?
-        .with_rest_overlaps(RestOverlaps::LeftOut)
-        .with_pair_enabled(&settings.pair_enabled)?;
+        let pass = settings.pass(rig, &pre.welded, rest)?;
         let pairs = pass.pairs();
         Ok(Self {
             pass,

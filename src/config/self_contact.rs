@@ -1,6 +1,7 @@
 //! The `[self_contact]` table resolved against a rig: the inputs of
 //! [`crate::selfcontact::pass::SelfContactPass::new`]
-//! ([`ContactConfig::resolve_self_contact`]).
+//! ([`ContactConfig::resolve_self_contact`]), and the pass built from them as `pose` runs it
+//! ([`SelfContactSettings::pass`]).
 
 use super::check::usable_direction;
 use super::{
@@ -8,12 +9,18 @@ use super::{
     SeparatedSpec,
 };
 use crate::mesh::WeldedMesh;
+use crate::pass::RestOverlaps;
 use crate::rig::Rig;
 use crate::selfcontact::fold::FoldParams;
-use crate::selfcontact::pass::{DEFAULT_FOLD_PASSES, DEFAULT_MAX_FOLD_PASSES};
+use crate::selfcontact::pass::{
+    SelfContactPass, SelfPassError, DEFAULT_FOLD_PASSES, DEFAULT_MAX_FOLD_PASSES,
+};
 use crate::selfcontact::regions::node_name;
-use crate::selfcontact::{derive_pairs, DirectionSource, RegionOptions};
-use nalgebra::Vector3;
+use crate::selfcontact::{
+    derive_pairs, extend_distinct, separated_from_skeleton, separated_regions, DirectionSource,
+    PairRegions, RegionOptions, SelfContactError,
+};
+use nalgebra::{Point3, Vector3};
 
 impl ContactConfig {
     /// Whether the self-contact pass runs: with a `[self_contact]` table, its `enabled`
@@ -239,6 +246,55 @@ impl ContactConfig {
             }
         }
         Ok((directions, pair_params))
+    }
+}
+
+impl SelfContactSettings {
+    /// The separated regions these settings name (`[[self_contact.separated]]`, in the file's
+    /// order), then those the skeleton derives when `separated_from_skeleton` is on, a pair
+    /// already named listed once ([`crate::selfcontact::extend_distinct`]).
+    pub fn separated_regions(
+        &self,
+        rig: &Rig,
+        welded: &[WeldedMesh],
+    ) -> Result<Vec<PairRegions>, SelfContactError> {
+        let mut separated = Vec::new();
+        for [a, b] in &self.separated {
+            separated.extend(separated_regions(rig, welded, [a, b], &self.regions)?);
+        }
+        if self.separated_from_skeleton {
+            let derived = separated_from_skeleton(rig, welded, &self.regions)?;
+            extend_distinct(&mut separated, derived);
+        }
+        Ok(separated)
+    }
+
+    /// The self-contact pass as `pose --self-contact` runs it, precomputed on `rest` (the
+    /// welded rest positions per body): the joint pairs from the skin weights and the
+    /// separated regions ([`SelfContactSettings::separated_regions`]), with these settings'
+    /// sweeps, per-pair parameters and enabled pairs; pairs crossing at rest left out
+    /// ([`RestOverlaps::LeftOut`]: modeled overlaps, not contacts).
+    pub fn pass(
+        &self,
+        rig: &Rig,
+        welded: &[WeldedMesh],
+        rest: &[Vec<Point3<f64>>],
+    ) -> Result<SelfContactPass, SelfPassError> {
+        let separated = self.separated_regions(rig, welded)?;
+        SelfContactPass::with_separated(
+            rig,
+            welded,
+            rest,
+            &self.regions,
+            self.params,
+            &self.directions,
+            separated,
+        )?
+        .with_passes(self.passes)
+        .with_max_passes(self.max_passes)
+        .with_pair_params(&self.pair_params)?
+        .with_rest_overlaps(RestOverlaps::LeftOut)
+        .with_pair_enabled(&self.pair_enabled)
     }
 }
 
