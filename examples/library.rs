@@ -19,11 +19,12 @@ fn main() -> Result<(), Box<dyn Error>> {
     let rig = rig::load(path.as_ref())?;
     let pre = frames::Precomputed::new(&rig, Method::Lbs); // once per rig
     let times = frames::sample_times(&rig, Some(0), None)?;
+    let last = times.len().saturating_sub(1);
     let index = match args.next() {
-        Some(i) => i.parse::<usize>()?.min(times.len() - 1),
-        None => times.len() - 1,
+        Some(i) => i.parse::<usize>()?.min(last),
+        None => last,
     };
-    let t = times[index];
+    let t = times.get(index).copied().unwrap_or(0.0);
 
     // Once per rig, on the rest pose, from the rig's configuration as `pose` finds it
     // (`<rig stem>.contact.toml` next to the rig, else the defaults): the contact pass between
