@@ -28,6 +28,11 @@
 //!
 //! Everything that does not depend on the pose is precomputed once per rig
 //! ([`frames::Precomputed`]); every frame is a pure function of the pose.
+//!
+//! `examples/library.rs` builds both contact passes from a rig's configuration as `pose`
+//! does ([`config::ContactConfig::for_rig`], [`config::ContactConfig::resolve`],
+//! [`config::ContactConfig::resolve_self_contact`], [`config::SelfContactSettings::pass`]) and
+//! measures one frame.
 
 /// `AddAssign` for a struct of summed fields (timings, counts), field by field, with a doc
 /// line. The destructuring names every field: a field added to the struct and not to the
