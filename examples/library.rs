@@ -6,7 +6,6 @@
 //! (`MEASURING.md`) of the skinned input and of the output.
 
 use contact_skin::config::ContactConfig;
-use contact_skin::mesh::operators::{mean_edge_length, vertex_normals, NormalWeighting};
 use contact_skin::pass::{ContactPass, RestBody, RestOverlaps};
 use contact_skin::report::metrics;
 use contact_skin::{frames, rig, skinning::Method};
@@ -61,19 +60,11 @@ fn main() -> Result<(), Box<dyn Error>> {
         resolved.sweeps
     );
     // Penetrating vertices (`MEASURING.md`) over all bodies at once: inside another body or
-    // another part of their own; h is the rest mesh's mean edge length.
-    let h = (rest.iter().zip(&pre.welded))
-        .map(|(p, w)| mean_edge_length(p, &w.triangles))
-        .sum::<f64>()
-        / rest.len().max(1) as f64;
+    // another part of their own, as `pose --metrics` counts them.
+    let triangles: Vec<&[[u32; 3]]> = pre.welded.iter().map(|w| w.triangles.as_slice()).collect();
+    let h = metrics::h_rest(&rest, &triangles);
     let inside = |positions: &[Vec<Point3<f64>>]| {
-        let normals: Vec<_> = (positions.iter().zip(&pre.welded))
-            .map(|(p, w)| vertex_normals(p, &w.triangles, NormalWeighting::Area))
-            .collect();
-        let bodies: Vec<metrics::Body> = (positions.iter().zip(&pre.welded).zip(&normals))
-            .map(|((p, w), n)| (p.as_slice(), w.triangles.as_slice(), n.as_slice()))
-            .collect();
-        metrics::residual_penetration_bodies(&bodies, h).vertices
+        metrics::residual_penetration_posed(positions, &triangles, h).vertices
     };
     println!(
         "  penetrating vertices: {} skinned, {} after both passes",

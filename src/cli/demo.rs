@@ -385,7 +385,7 @@ fn measure(rig: &Rig, pre: &Precomputed, timed: &[(ContactFrame, f64)]) -> Conta
 }
 
 fn penetration(positions: &[Vec<Point3<f64>>], tris: &[&[[u32; 3]]], h: f64) -> PenetrationRow {
-    let p = quality::penetration(positions, tris, h);
+    let p = metrics::residual_penetration_posed(positions, tris, h);
     PenetrationRow {
         vertices: p.vertices,
         max_depth_h: p.max_depth / h,

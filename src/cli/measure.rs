@@ -4,13 +4,11 @@
 //! continuity (displacement-step ratio). The demo measures its scenes with the same functions.
 
 use contact_skin::frames::Precomputed;
-use contact_skin::mesh::operators::{mean_edge_length, vertex_normals, NormalWeighting};
 use contact_skin::mesh::signed_volume;
 use contact_skin::report::metrics;
 use contact_skin::rig::Rig;
 use nalgebra::{Point3, Vector3};
 use serde::Serialize;
-use std::borrow::Cow;
 
 /// Welded positions per body.
 pub type Bodies = Vec<Vec<Point3<f64>>>;
@@ -20,80 +18,16 @@ pub fn triangles(pre: &Precomputed) -> Vec<&[[u32; 3]]> {
     pre.welded.iter().map(|w| w.triangles.as_slice()).collect()
 }
 
-/// `h`: the rest pose's mean edge length, averaged over the bodies (the length unit of the
-/// penetration nudge and of the reported depths); 1 (scene units) when that is not a positive
-/// finite length (every rest edge collapsed, no triangle, non-finite rest positions): depths
-/// of 0 over an `h` of 0 read NaN otherwise.
+/// `h` ([`metrics::h_rest`]): the rest pose's mean edge length, averaged over the bodies (the
+/// length unit of the penetration nudge and of the reported depths).
 pub fn rest_edge_length(rig: &Rig, pre: &Precomputed) -> f64 {
     mean_rest_edge(rig, pre, &triangles(pre))
 }
 
-/// [`rest_edge_length`] over the `triangles` of each body.
+/// [`rest_edge_length`] over the `triangles` of each body ([`metrics::h_rest`]).
 fn mean_rest_edge(rig: &Rig, pre: &Precomputed, triangles: &[&[[u32; 3]]]) -> f64 {
     let rest = contact_skin::frames::welded_positions(rig, pre, None, 0.0);
-    let sum: f64 = rest
-        .iter()
-        .zip(triangles)
-        .map(|(p, t)| mean_edge_length(p, t))
-        .sum();
-    let h = sum / rest.len().max(1) as f64;
-    if h > 0.0 && h.is_finite() {
-        h
-    } else {
-        1.0
-    }
-}
-
-/// Residual penetration (`MEASURING.md`) of a frame's bodies together: a vertex is flagged
-/// inside another body or inside another part of its own body (a fold). A closed body whose
-/// positions enclose a negative signed volume (turned inside out by its pose: a joint scaled
-/// by -1 in the animation) is measured with its winding reversed, so that its inside is
-/// inside: read as it winds, its winding number is -1 there and nothing in it counted as
-/// penetrating (the capsule pair mirrored from mid-animation: 0 penetrating vertices in the
-/// frames where the capsules are pressed deepest).
-pub fn penetration(
-    positions: &[Vec<Point3<f64>>],
-    tris: &[&[[u32; 3]]],
-    h: f64,
-) -> metrics::Penetration {
-    let outward: Vec<Cow<[[u32; 3]]>> = positions
-        .iter()
-        .zip(tris)
-        .map(|(p, &t)| outward_winding(p, t))
-        .collect();
-    let normals: Vec<Vec<Vector3<f64>>> = positions
-        .iter()
-        .zip(&outward)
-        .map(|(p, t)| vertex_normals(p, t, NormalWeighting::Area))
-        .collect();
-    let bodies: Vec<metrics::Body> = positions
-        .iter()
-        .zip(&outward)
-        .zip(&normals)
-        .map(|((p, t), n)| (p.as_slice(), t.as_ref(), n.as_slice()))
-        .collect();
-    metrics::residual_penetration_bodies(&bodies, h)
-}
-
-/// `triangles` reversed when they close a surface that `positions` turn inside out (a negative
-/// signed volume), else as they are.
-fn outward_winding<'t>(
-    positions: &[Point3<f64>],
-    triangles: &'t [[u32; 3]],
-) -> Cow<'t, [[u32; 3]]> {
-    let indexed = triangles
-        .iter()
-        .flatten()
-        .all(|&v| (v as usize) < positions.len());
-    // The sign first: the closedness test sorts the edges, and only a negative volume asks it.
-    let inside_out = indexed
-        && signed_volume(positions, triangles) < 0.0
-        && contact_skin::mesh::closed_and_oriented(triangles);
-    if inside_out {
-        Cow::Owned(triangles.iter().map(|&[a, b, c]| [a, c, b]).collect())
-    } else {
-        Cow::Borrowed(triangles)
-    }
+    metrics::h_rest(&rest, triangles)
 }
 
 /// [`metrics::turned_faces`] summed over the bodies (`skinned`: the skinning's normals).
@@ -224,14 +158,17 @@ impl Measured {
         output: &[Vec<Point3<f64>>],
     ) -> Self {
         let tris = surfaces.triangles();
-        let before = penetration(input, &tris, h);
+        let before = metrics::residual_penetration_posed(input, &tris, h);
         // A frame the passes left alone (no contact, or `--no-contact`) is its input: measured
         // once.
         let (after, turned) = if input == output {
             (before.clone(), metrics::TurnedFaces::default())
         } else {
             let turned = turned_faces(&tris, input, skinned, output, h);
-            (penetration(output, &tris, h), turned)
+            (
+                metrics::residual_penetration_posed(output, &tris, h),
+                turned,
+            )
         };
         let metrics = FrameMetrics {
             frame,

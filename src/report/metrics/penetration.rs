@@ -401,3 +401,67 @@ impl Topology {
         self.component.get(w as usize).copied().unwrap_or(u32::MAX)
     }
 }
+
+/// The length unit of the reports (`h_rest`, `MEASURING.md`): the rest pose's mean edge length
+/// ([`crate::mesh::operators::mean_edge_length`]) averaged over the bodies (`rest` their
+/// positions, `triangles` their surfaces); 1 (scene units) when that is not a positive finite
+/// length (every rest edge collapsed, no triangle, non-finite rest positions): depths of 0 over
+/// an `h` of 0 read NaN otherwise.
+pub fn h_rest(rest: &[Vec<Point3<f64>>], triangles: &[&[[u32; 3]]]) -> f64 {
+    let sum: f64 = (rest.iter().zip(triangles))
+        .map(|(p, t)| crate::mesh::operators::mean_edge_length(p, t))
+        .sum();
+    let h = sum / rest.len().max(1) as f64;
+    if h > 0.0 && h.is_finite() {
+        h
+    } else {
+        1.0
+    }
+}
+
+/// [`residual_penetration_bodies`] of a frame's posed bodies (`positions`, `triangles` per
+/// body), their vertex normals made here: a vertex is flagged inside another body or inside
+/// another part of its own body (a fold). A closed body whose positions enclose a negative
+/// signed volume (turned inside out by its pose: a joint scaled by -1 in the animation) is
+/// measured with its winding reversed, so that its inside is inside: read as it winds, its
+/// winding number is -1 there and nothing in it counted as penetrating (the capsule pair
+/// mirrored from mid-animation: 0 penetrating vertices in the frames where the capsules are
+/// pressed deepest).
+pub fn residual_penetration_posed(
+    positions: &[Vec<Point3<f64>>],
+    triangles: &[&[[u32; 3]]],
+    h: f64,
+) -> Penetration {
+    use crate::mesh::operators::{vertex_normals, NormalWeighting};
+    let outward: Vec<std::borrow::Cow<[[u32; 3]]>> = (positions.iter().zip(triangles))
+        .map(|(p, &t)| outward_winding(p, t))
+        .collect();
+    let normals: Vec<Vec<Vector3<f64>>> = (positions.iter().zip(&outward))
+        .map(|(p, t)| vertex_normals(p, t, NormalWeighting::Area))
+        .collect();
+    let bodies: Vec<Body> = (positions.iter().zip(&outward).zip(&normals))
+        .map(|((p, t), n)| (p.as_slice(), t.as_ref(), n.as_slice()))
+        .collect();
+    residual_penetration_bodies(&bodies, h)
+}
+
+/// `triangles` reversed when they close a surface that `positions` turn inside out (a negative
+/// signed volume), else as they are.
+fn outward_winding<'t>(
+    positions: &[Point3<f64>],
+    triangles: &'t [[u32; 3]],
+) -> std::borrow::Cow<'t, [[u32; 3]]> {
+    let indexed = triangles
+        .iter()
+        .flatten()
+        .all(|&v| (v as usize) < positions.len());
+    // The sign first: the closedness test sorts the edges, and only a negative volume asks it.
+    let inside_out = indexed
+        && crate::mesh::signed_volume(positions, triangles) < 0.0
+        && crate::mesh::closed_and_oriented(triangles);
+    if inside_out {
+        std::borrow::Cow::Owned(triangles.iter().map(|&[a, b, c]| [a, c, b]).collect())
+    } else {
+        std::borrow::Cow::Borrowed(triangles)
+    }
+}
